@@ -29,6 +29,8 @@ PATIENCE = 2
 #: Weight path: ``scale * 10**(TOP - STEP * k)`` for ``k = 0 .. STEPS - 1``.
 TOP, STEP, STEPS = 2.0, 0.5, 21
 PATH_ITERATIONS, FINAL_ITERATIONS = 300, 3000
+#: Correction pairs L-BFGS-B keeps.
+MEMORY = 20
 
 
 class _Objective:
@@ -60,7 +62,7 @@ class _Objective:
 def _minimise(obj: _Objective, z0: np.ndarray, bounds, iterations: int, gtol: float):
     res = scipy.optimize.minimize(
         obj, z0, jac=True, method="L-BFGS-B", bounds=bounds,
-        options={"maxiter": iterations, "maxcor": 20, "ftol": 1e-13, "gtol": gtol},
+        options={"maxiter": iterations, "maxcor": MEMORY, "ftol": 1e-13, "gtol": gtol},
     )
     return res.x, res
 
