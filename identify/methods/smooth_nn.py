@@ -17,16 +17,25 @@ The weight ``lam`` is chosen from the measured data alone by generalised
 cross-validation (:mod:`~identify.methods.gcv`) unless given.
 
 Like every method, ``solver="fast"`` (the default) or ``"dense"`` (the
-reference).  The fast path has two algorithms for the same problem
-(setting ``algorithm``):
+reference).  The fast path has three algorithms for the same problem
+(setting ``algorithm``; ``"auto"``, the default, takes ``"normal"`` up to
+:data:`NORMAL_MAX_CELLS` cells, above that ``"outputs"`` on the square
+damped-oscillation design and ``"iterative"`` on any other input):
 
 * ``"normal"``: normal equations from operator products
   (:mod:`~identify.methods.normal_equations`), GCV by one eigendecomposition,
   then an exact active-set QP (:mod:`~identify.methods.nonneg_qp`).  Memory
-  ``O(P^2)``; the default up to :data:`NORMAL_MAX_CELLS` cells.
+  ``O(P^2)``.
+* ``"outputs"`` (square design only): the problem written in the outputs
+  ``b = S w`` with the sparse ``S^{-1}`` -- a diagonal data term and a
+  sparse penalty -- weight by GCV up to 2048 measured rows, else held-out
+  rows on sparse unconstrained fits, then Clarabel on the sparse QP
+  (:mod:`~identify.methods.smooth_square`).  Memory ``O(n)`` plus one
+  sparse factor.  Should it fail on degenerate measured rows, ``"auto"``
+  falls back to ``"iterative"`` (``info_["fallback"]`` says why).
 * ``"iterative"``: matrix-free L-BFGS-B on ``problem.operator`` with the
   weight chosen on held-out measured rows
-  (:mod:`~identify.methods.smooth_large`).  Memory ``O(n + P)``.
+  (:mod:`~identify.methods.smooth_large`).  Memory ``O(n + P)``; any input.
 
 The dense reference (:func:`solve_dense`) takes the measured rows of the
 dense ``S``, chooses the weight by the same GCV, and hands the penalised
@@ -42,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import IdentifyError
+from ..errors import IdentifyError, MethodNotApplicable
 from .base import Method
 from .gcv import gcv_weight
 from .nonneg_qp import nonneg_qp
@@ -52,7 +61,7 @@ from .triangle_penalty import dense_roughness_matrix, difference_matrix
 
 #: Above this many cells (L = 62) the default algorithm is the iterative one.
 NORMAL_MAX_CELLS = 2016
-ALGORITHMS = ("auto", "normal", "iterative")
+ALGORITHMS = ("auto", "normal", "iterative", "outputs")
 #: Refinement steps of the final solution against residuals computed with
 #: the operator (the normal equations square the condition number of S).
 REFINEMENT_STEPS = 1
@@ -61,8 +70,8 @@ REFINEMENT_STEPS = 1
 class SmoothNonNegative(Method):
     """Roughness-penalised NNLS; ``weight`` = ``lam`` (None: chosen by GCV).
 
-    ``algorithm``: the fast path's ``"auto"`` (default), ``"normal"`` or
-    ``"iterative"``; ``solver``: ``"fast"`` or ``"dense"`` (the reference).
+    ``algorithm``: the fast path's ``"auto"`` (default), ``"normal"``,
+    ``"outputs"`` or ``"iterative"``; ``solver``: ``"fast"`` or ``"dense"`` (the reference).
     """
 
     name = "smooth_nn"
@@ -85,14 +94,35 @@ class SmoothNonNegative(Method):
         problem.require_thermal_identifiable(self.name)
         if self.dense:
             return solve_dense(problem, self.weight)
+        from .smooth_large import solve_iterative
+        from .smooth_square import solve_outputs
+
         algorithm = self.algorithm
         if algorithm == "auto":
-            algorithm = "normal" if problem.n_cells <= NORMAL_MAX_CELLS else "iterative"
+            if problem.n_cells <= NORMAL_MAX_CELLS:
+                algorithm = "normal"
+            elif _is_square(problem):
+                try:
+                    return solve_outputs(problem, self.weight)
+                except IdentifyError as exc:  # degenerate measured rows: the iterative path copes
+                    w, info = solve_iterative(problem, self.weight)
+                    return w, {**info, "fallback": str(exc)}
+            else:
+                algorithm = "iterative"
+        if algorithm == "outputs":
+            problem.require_square()
+            return solve_outputs(problem, self.weight)
         if algorithm == "iterative":
-            from .smooth_large import solve_iterative
-
             return solve_iterative(problem, self.weight)
         return solve_normal(problem, self.weight)
+
+
+def _is_square(problem: Problem) -> bool:
+    try:
+        problem.require_square()
+    except MethodNotApplicable:
+        return False
+    return True
 
 
 def _weight(ne, problem: Problem, weight: float | None) -> tuple[float, dict[str, Any]]:
