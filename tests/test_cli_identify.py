@@ -122,11 +122,3 @@ def test_predict_bad_model(tmp_path, damped_csv):
     bad.write_text(json.dumps({"walls": [0, 1], "mu0": 0}))
     assert_one_line_error(rig("predict", bad, path, "--json"), "missing")
     assert_one_line_error(rig("predict", tmp_path / "none.json", path), "no such file")
-
-
-def test_demo_runs():
-    run = rig("demo", "--levels", 8, "--measurements", 30, "--json")
-    assert run.code == 0, run.err
-    out = run.json()
-    assert [m["method"] for m in out["methods"]] == ["ls", "cs", "cs_order", "cs_order_nn", "smooth_nn"]
-    assert all(m["validation_nrmse"] < 0.2 for m in out["methods"])

@@ -69,8 +69,15 @@ def diagnose_simulated(
         where = Path(directory) if directory is not None else Path(tmp)
         where.mkdir(parents=True, exist_ok=True)
         fit, check = simulate(bench, where)
-        loaded = load_runs([fit], [check])
-    result = diagnose(loaded.fit, loaded.check, loaded.grid, DiagnosisSettings())
+        result, text, obj = diagnose_sessions(fit, check)
+    return SimulatedDiagnosis(effect, float(strength), fit, check, result, text, obj)
+
+
+def diagnose_sessions(fit: Path, check: Path, settings: DiagnosisSettings | None = None
+                      ) -> tuple[Diagnosis, str, dict[str, Any]]:
+    """Diagnose one identification and one check session; the diagnosis, its report and ``--json`` object
+    (the sessions are named by file name)."""
+    loaded = load_runs([fit], [check])
+    result = diagnose(loaded.fit, loaded.check, loaded.grid, settings or DiagnosisSettings())
     names = ([fit.name], [check.name])
-    return SimulatedDiagnosis(effect, float(strength), fit, check, result,
-                              to_text(result, *names, loaded.warnings), to_json(result, *names, loaded.warnings))
+    return result, to_text(result, *names, loaded.warnings), to_json(result, *names, loaded.warnings)

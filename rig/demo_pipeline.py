@@ -1,0 +1,194 @@
+"""The whole job on the embedded simulated rig: acquire -> identify -> diagnose -> report.
+
+What ``rig demo`` runs, in the order an operator and a researcher would:
+
+1. **acquire** -- an identification run (the damped oscillation of the grid
+   with the thermal point) and a held-out check run (``rig acquire
+   --sequence check``: random reversals, several steps and dwells) on the
+   simulated VO2 device, through the real sequencer and its virtual clock,
+   into two session files (:mod:`rig.diagnosis.simulate`).  One unmodelled
+   effect is switched on in the device (``creep`` unless told otherwise),
+   as a real cantilever has them;
+2. **identify** -- every demo method on ``M`` randomly chosen measured
+   points of the identification session, each model stored in the session
+   (``/models/NAME``, as ``rig identify`` names them) and scored on the
+   check session;
+3. **diagnose** -- ``rig diagnose --fit fit.h5 --check check.h5``: where the
+   model misses on the check run, which effect causes it, how far the gap
+   shrinks with it (figures ``diagnosis/where.png``, ``candidates.png``);
+4. **report** -- ``rig report fit.h5 --model smooth_nn-... --validate check.h5``
+   into ``report/`` (figures and ``report.md``).
+
+Nothing here is a shortcut past the application: the same functions run
+behind ``rig acquire``, ``rig identify``, ``rig diagnose`` and ``rig report``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from identify import Excitation
+
+from .diagnosis.demo import DEMO_STRENGTHS, diagnose_sessions
+from .diagnosis.simulate import SimulatedBench, simulate_check_run, simulate_fit_run
+from .errors import UserError
+from .reidentify import IdentifyOptions, fit_job, plan_job, store_model
+from .scoring import score_model
+from .session_input import open_run
+
+#: The methods the demo identifies with, in the order it prints them.
+DEMO_METHODS = ("ls", "cs", "cs_order", "cs_order_nn", "smooth_nn")
+#: The method whose model the report shows (ours; see the README's study).
+REPORT_METHOD = "smooth_nn"
+#: Session file names inside the demo directory.
+FIT_SESSION, CHECK_SESSION = "fit.h5", "check.h5"
+
+
+@dataclass(frozen=True)
+class DemoSettings:
+    """What to simulate and identify: grid ``levels``, ``measurements`` M of the identification
+    run's points (None: all), the ``effect`` switched on (None: none) at ``strength`` (None: the
+    calibrated demo strength, about ten times the noise level), the check run's length, the seed."""
+
+    levels: int = 30
+    measurements: int | None = 300
+    effect: str | None = "creep"
+    strength: float | None = None
+    check_points: int = 200
+    seed: int = 0
+    methods: tuple[str, ...] = DEMO_METHODS
+
+    @property
+    def effect_strength(self) -> float:
+        if self.effect is None:
+            return 0.0
+        return DEMO_STRENGTHS[self.effect] if self.strength is None else float(self.strength)
+
+
+@dataclass(eq=False)
+class DemoResult:
+    """Everything the demo did, with the paths of what it wrote."""
+
+    settings: DemoSettings
+    out: Path
+    fit_path: Path
+    check_path: Path
+    fit_points: int = 0
+    check_points: int = 0
+    acquire_seconds: float = 0.0
+    methods: list[dict[str, Any]] = field(default_factory=list)
+    diagnosis_text: str = ""
+    diagnosis: dict[str, Any] = field(default_factory=dict)
+    report_path: Path | None = None
+    figures: list[Path] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        s = self.settings
+        return {
+            "levels": s.levels,
+            "measurements": s.measurements,
+            "points": self.fit_points,
+            "check_points": self.check_points,
+            "effect": s.effect,
+            "strength": s.effect_strength,
+            "seed": s.seed,
+            "out": str(self.out),
+            "sessions": {"fit": str(self.fit_path), "check": str(self.check_path)},
+            "acquire_s": self.acquire_seconds,
+            "methods": self.methods,
+            "diagnosis": self.diagnosis,
+            "report": None if self.report_path is None else str(self.report_path),
+            "figures": [str(p) for p in self.figures],
+        }
+
+
+def _fresh(out: Path) -> None:
+    """Refuse a directory that already holds a demo's sessions: they are never overwritten."""
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: is a file, not a directory")
+    for name in (FIT_SESSION, CHECK_SESSION):
+        if (out / name).exists():
+            raise UserError(f"--out {out}: already holds {name} from an earlier run; "
+                            "a session is never overwritten -- choose another --out")
+
+
+def _bench(s: DemoSettings) -> SimulatedBench:
+    return SimulatedBench(s.effect, s.effect_strength, levels=s.levels, check_points=s.check_points, seed=s.seed)
+
+
+def acquire_step(s: DemoSettings, result: DemoResult) -> None:
+    bench = _bench(s)
+    t0 = time.perf_counter()
+    simulate_fit_run(bench, result.fit_path)
+    simulate_check_run(bench, result.check_path)
+    result.acquire_seconds = time.perf_counter() - t0
+
+
+def identify_step(s: DemoSettings, result: DemoResult) -> str:
+    """Fit, store and score every method; returns the stored name of the report's model."""
+    check = open_run(result.check_path, allow_partial=False)
+    report_name = ""
+    for method in s.methods:
+        job = plan_job(result.fit_path, IdentifyOptions(method=method, measurements=s.measurements, seed=s.seed))
+        report = fit_job(job)
+        store_model(job, report, force=False)
+        record = open_run(result.fit_path, allow_partial=False).session.models[job.store_as]
+        score = score_model(record, check)
+        result.methods.append({
+            "method": method,
+            "name": job.store_as,
+            "fit_rmse_um": report.rmse,
+            "validation_rmse_um": score.rmse,
+            "validation_nrmse": score.nrmse,
+            "seconds": report.seconds,
+        })
+        if method == REPORT_METHOD or not report_name:
+            report_name = job.store_as
+    result.fit_points = int(open_run(result.fit_path, allow_partial=False).inputs.size)
+    result.check_points = int(check.inputs.size)
+    return report_name
+
+
+def diagnose_step(out: Path, result: DemoResult) -> None:
+    from .plots.diagnosis import candidates_figure, where_figure
+    from .plots.style import save_figure
+
+    diagnosis, result.diagnosis_text, result.diagnosis = diagnose_sessions(result.fit_path, result.check_path)
+    where = out / "diagnosis"
+    where.mkdir(exist_ok=True)
+    result.figures += [save_figure(where_figure(diagnosis), where / "where.png"),
+                       save_figure(candidates_figure(diagnosis), where / "candidates.png")]
+
+
+def report_step(model_name: str, out: Path, result: DemoResult) -> None:
+    from .session_report import SUMMARY, ScoredRun, build_report, write_report
+
+    data = open_run(result.fit_path, allow_partial=False)
+    check = open_run(result.check_path, allow_partial=False)
+    record = data.session.models[model_name]
+    built = build_report(ScoredRun(data, score_model(record, data, fitted_on=True)), record,
+                         ScoredRun(check, score_model(record, check)))
+    written = write_report(built, out / "report")
+    result.report_path = out / "report" / SUMMARY
+    result.figures += [p for p in written if p.suffix == ".png"]
+
+
+def run_demo(settings: DemoSettings, out: str | Path) -> DemoResult:
+    """Acquire, identify, diagnose and report into the directory ``out`` (created; refused when it
+    already holds a demo's sessions)."""
+    out = Path(out)
+    _fresh(out)
+    points = Excitation.damped(_bench(settings).grid(), True).inputs.size
+    if settings.measurements is not None and not 1 <= settings.measurements <= points:
+        raise UserError(f"--measurements {settings.measurements} must be between 1 and the {points} points "
+                        f"of the damped oscillation at L={settings.levels}")
+    out.mkdir(parents=True, exist_ok=True)
+    result = DemoResult(settings, out, out / FIT_SESSION, out / CHECK_SESSION)
+    acquire_step(settings, result)
+    model_name = identify_step(settings, result)
+    diagnose_step(out, result)
+    report_step(model_name, out, result)
+    return result
