@@ -54,6 +54,7 @@ import numpy as np
 from ..errors import IdentifyError, MethodNotApplicable
 from .base import Method
 from .gcv import gcv_weight
+from .l1 import solve_clarabel
 from .nonneg_qp import nonneg_qp
 from .normal_equations import NormalEquations, normal_equations
 from .problem import Problem
@@ -154,12 +155,7 @@ def solve_dense(problem: Problem, weight: float | None) -> tuple[np.ndarray, dic
     fit = cp.sum_squares(x[:, :n] @ mu + x[:, n:] @ free - y)
     roughness = cp.sum_squares(d @ mu)
     task = cp.Problem(cp.Minimize(fit + lam * roughness), [mu >= 0])
-    try:
-        task.solve(solver=cp.CLARABEL)
-    except cp.error.SolverError as exc:  # pragma: no cover - solver failure
-        raise IdentifyError(f"the smooth_nn reference QP failed: {exc}") from None
-    if task.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        raise IdentifyError(f"the smooth_nn reference QP is {task.status}")
+    solve_clarabel(task, "the smooth_nn reference QP")
     w = np.concatenate([np.maximum(mu.value, 0.0), free.value]) * scale
     return w, {"solver": "dense", "weight": lam, **info, "status": task.status}
 
