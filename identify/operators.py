@@ -23,7 +23,7 @@ import scipy.sparse
 from scipy.sparse.linalg import LinearOperator
 
 from .everett import (
-    everett_increments, prefix_sums, prefix_sums_adjoint, total_index,
+    _flat_cells, everett_increments, prefix_sums, prefix_sums_adjoint, total_index,
 )
 from .grid import Grid
 from .memory import InitialState
@@ -137,13 +137,19 @@ class RegressorOperator(LinearOperator):
     def dense_rows(self, rows: np.ndarray | slice | None = None) -> np.ndarray:
         """Rows ``rows`` (sorted) of the dense ``S``, all by default: ``(len(rows), P)``.
 
-        Built a block of rows at a time from the running Everett increments,
-        ``O(len(rows) (P + L^2))`` time; only the requested rows are held.
-        For small problems and the dense reference: the products above never
-        need it.
+        ``Phi`` at each requested row is the running sum of the Everett
+        increments up to it: the increments between consecutive requested
+        rows are summed sparsely (one sparse product), laid out on the
+        ``L x L`` prefix table and accumulated down the rows; the suffix
+        sums over the table (:func:`~identify.everett.prefix_sums_adjoint`)
+        then turn them into cell coefficients.  ``O(len(rows) L^2)`` time,
+        a block of rows at a time (about 32 MB of work arrays); only the
+        requested rows are held.  For small problems and the dense
+        reference: the products above never need it.
         """
         n, P = self.shape
         c = self.grid.n_cells
+        L = self.grid.levels
         rows = np.arange(n)[rows if rows is not None else slice(None)]
         out = np.empty((rows.size, P))
         out[:, c] = 1.0
@@ -151,21 +157,34 @@ class RegressorOperator(LinearOperator):
             out[:, c + 1] = self.inputs[rows]
         if rows.size == 0:
             return out
-        columns = self.increments.T  # (cells, n), column slices are cheap
-        span = max(16, 4_000_000 // c)  # samples per block: about 32 MB of work arrays
-        running = np.zeros(c)  # Phi (as prefix-table coefficients) before the block
-        for lo in range(0, int(rows[-1]) + 1, span):
-            hi = min(lo + span, int(rows[-1]) + 1)
-            first, last = np.searchsorted(rows, [lo, hi])
-            if first == last:
-                running += columns[:, lo:hi].sum(axis=1)
-                continue
-            phi = np.cumsum(columns[:, lo:hi].toarray(), axis=1)
-            phi += running[:, None]
-            running = phi[:, -1].copy()
-            # each row's Phi as a function of the cell weights: (cells, rows in block)
-            weights = prefix_sums_adjoint(self.grid, phi[:, rows[first:last] - lo])
-            out[first:last, :c] = weights.T
-            out[first:last, :c] *= 2.0
-            out[first:last, :c] -= 1.0
+        last = int(rows[-1]) + 1
+        # sample t contributes to every requested row from the first one at or after t on
+        first_row = np.searchsorted(rows, np.arange(last))
+        between = scipy.sparse.csr_array(
+            (np.ones(last), (first_row, np.arange(last))), shape=(rows.size, last)
+        ) @ self._table_increments[:last]
+        cells = _flat_cells(L)
+        running = np.zeros(L * L)
+        block = max(1, 4_000_000 // (L * L))
+        for lo in range(0, rows.size, block):
+            hi = min(lo + block, rows.size)
+            phi = between[lo:hi].toarray()
+            phi[0] += running
+            for i in range(1, hi - lo):
+                phi[i] += phi[i - 1]
+            running = phi[-1].copy()
+            table = phi.reshape(hi - lo, L, L)
+            for i in range(L - 2, -1, -1):  # suffix sums over the alpha bands, then the beta bands
+                table[:, i, :] += table[:, i + 1, :]
+            for j in range(L - 2, -1, -1):
+                table[:, :, j] += table[:, :, j + 1]
+            np.multiply(phi[:, cells], 2.0, out=out[lo:hi, :c])
+            out[lo:hi, :c] -= 1.0
         return out
+
+    @cached_property
+    def _table_increments(self) -> scipy.sparse.csr_array:
+        """``E`` with its columns on the flat ``L x L`` prefix table (``i L + j``): ``(n, L^2)``."""
+        e = self.increments
+        L = self.grid.levels
+        return scipy.sparse.csr_array((e.data, _flat_cells(L)[e.indices], e.indptr), shape=(e.shape[0], L * L))

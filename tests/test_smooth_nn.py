@@ -204,19 +204,72 @@ def test_beats_least_squares_on_a_smooth_density_from_few_rows():
 
 def test_iterative_solver_agrees_with_the_normal_equations():
     _, problem = _problem(levels=8, n=70, m=50, noise=0.2, seed=4)
-    normal = make_method("smooth_nn", weight=0.05, solver="normal").fit(problem)
-    iterative = make_method("smooth_nn", weight=0.05, solver="iterative").fit(problem)
+    normal = make_method("smooth_nn", weight=0.05, algorithm="normal").fit(problem)
+    iterative = make_method("smooth_nn", weight=0.05, algorithm="iterative").fit(problem)
     assert iterative.info_["converged"]
     s = problem.regressor
     diff = s @ (normal.parameters_ - iterative.parameters_)
     assert np.sqrt(np.mean(diff**2)) < 1e-4 * np.ptp(s @ normal.parameters_)
     # and with the weight chosen on held-out rows it stays close to the GCV fit
-    chosen = make_method("smooth_nn", solver="iterative").fit(problem)
+    chosen = make_method("smooth_nn", algorithm="iterative").fit(problem)
     gcv = make_method("smooth_nn").fit(problem)
     assert chosen.info_["selection"] == "hold-out"
     y = problem.measured
     for fit in (chosen, gcv):
         assert np.sqrt(np.mean((problem.measured_regressor @ fit.parameters_ - y) ** 2)) < 0.3
+
+
+def _square_problem(levels: int, m: int, seed: int, thermal_term: bool = True,
+                    noise: float = 5.0) -> tuple[np.ndarray, Problem]:
+    grid = Grid(levels, 0.0, 1.0)
+    truth = PreisachModel(grid, gaussian(grid), mu0=0.3, c_d=0.5 if thermal_term else 0.0)
+    v = damped_oscillation(grid, thermal_term)
+    y_true = truth.predict(v)
+    rng = np.random.default_rng(seed)
+    rows = choose_rows(v.size, m, seed, include=(v.size - 1,) if thermal_term else ())
+    return y_true, Problem.build(grid, v, y_true + rng.uniform(-noise, noise, v.size), rows=rows,
+                                 thermal_term=thermal_term)
+
+
+@pytest.mark.parametrize("thermal_term", [True, False])
+def test_output_space_algorithm_agrees_with_the_normal_equations(thermal_term):
+    y_true, problem = _square_problem(12, 50, 5, thermal_term)
+    s = problem.regressor
+    # a given weight: the same QP, two formulations
+    normal = make_method("smooth_nn", weight=0.05, algorithm="normal").fit(problem)
+    outputs = make_method("smooth_nn", weight=0.05, algorithm="outputs").fit(problem)
+    assert outputs.info_["algorithm"] == "outputs" and np.all(outputs.model_.density >= 0)
+    scale = np.ptp(s @ normal.parameters_)
+    assert np.sqrt(np.mean((s @ (normal.parameters_ - outputs.parameters_)) ** 2)) < 1e-5 * scale
+    # GCV through the Schur complement of the output-space penalty picks the same weight,
+    # and the fits agree to far below 1 % of the modelling error
+    normal = make_method("smooth_nn", algorithm="normal").fit(problem)
+    outputs = make_method("smooth_nn", algorithm="outputs").fit(problem)
+    assert outputs.info_["selection"] == "gcv"
+    assert outputs.info_["weight"] == pytest.approx(normal.info_["weight"], rel=1e-6)
+    assert outputs.info_["edf"] == pytest.approx(normal.info_["edf"], rel=1e-6)
+    modelling = np.sqrt(np.mean((s @ normal.parameters_ - y_true) ** 2))
+    assert np.sqrt(np.mean((s @ (normal.parameters_ - outputs.parameters_)) ** 2)) < 1e-3 * modelling
+
+
+def test_output_space_hold_out_choice_on_many_rows(monkeypatch):
+    from identify.methods import smooth_square
+
+    y_true, problem = _square_problem(12, 60, 6)
+    monkeypatch.setattr(smooth_square, "GCV_MAX_ROWS", 10)  # the large-M branch on a small problem
+    fit = make_method("smooth_nn", algorithm="outputs").fit(problem)
+    assert fit.info_["selection"] == "hold-out"
+    errors = [err for _, err in fit.info_["path"]]
+    assert fit.info_["weight"] == fit.info_["path"][int(np.argmin(errors))][0]
+    ls = make_method("ls").fit(problem)
+    rmse = {f: np.sqrt(np.mean((problem.regressor @ f.parameters_ - y_true) ** 2)) for f in (fit, ls)}
+    assert rmse[fit] < rmse[ls]
+
+
+def test_output_space_algorithm_needs_the_square_design():
+    _, problem = _problem(levels=8, n=70, m=50, noise=0.2, seed=4)
+    with pytest.raises(MethodNotApplicable, match="square"):
+        make_method("smooth_nn", algorithm="outputs").fit(problem)
 
 
 def test_refuses_a_thermal_term_the_rows_cannot_identify():
@@ -237,10 +290,17 @@ def test_a_single_measurement_gives_a_flat_density():
 
 
 @pytest.mark.parametrize("settings_", [{"weight": 0.0}, {"weight": -1.0}, {"weight": float("nan")},
-                                        {"solver": "magic"}])
+                                        {"algorithm": "magic"}])
 def test_bad_settings(settings_):
     with pytest.raises(IdentifyError, match="smooth_nn"):
         make_method("smooth_nn", **settings_)
+
+
+def test_solver_means_fast_or_dense_and_names_the_algorithm_setting():
+    with pytest.raises(IdentifyError, match="algorithm='iterative'"):
+        make_method("smooth_nn", solver="iterative")
+    assert make_method("smooth_nn", solver="dense").settings() == {
+        "solver": "dense", "weight": None, "algorithm": "auto"}
 
 
 def test_rig_identify_knows_smooth_nn(tmp_path):

@@ -42,6 +42,8 @@ STEP_POLISH = 0.05
 STEP = 0.02
 #: Over-relaxation of the Douglas-Rachford update (1 = plain).
 RELAX = 1.9
+#: Iterations of the splitting between duality-gap checks.
+CHECK = 25
 
 
 class PartialDCT:
@@ -128,7 +130,7 @@ def basis_pursuit_dct(
     for it in range(1, max_iter + 1):
         q = project(z)
         z = z + RELAX * (_soft(2.0 * q - z, t) - q)
-        if it % 25:
+        if it % CHECK:
             continue
         gap = _duality_gap(phi, q, z, t, yb, eps) / max(np.abs(q).sum(), 1e-300)
         if can_polish and gap <= next_polish:

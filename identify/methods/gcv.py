@@ -124,18 +124,28 @@ def gcv_curve(ne: NormalEquations, grid: Grid, n_free: int, lams: np.ndarray | N
         spec, c2, r0, rank_z, space = _spectrum_data_space(ne.rows_matrix, ne.y, w, n_free)
     else:
         spec, c2, r0, rank_z, space = _spectrum_parameter_space(ne, w, n_free)
-    top = spec.max(initial=0.0)
-    if top <= 1e-12 * max(float(np.trace(ne.hessian)), np.finfo(float).tiny):
+    if spec.max(initial=0.0) <= 1e-12 * max(float(np.trace(ne.hessian)), np.finfo(float).tiny):
         return None
+    return curve_from_spectrum(spec, c2, r0, rank_z, space, m, lams)
+
+
+def curve_from_spectrum(spec, c2, r0, rank_z, space, m, lams=None) -> GCVCurve:
+    """GCV on ``lams`` from the ridge spectrum ``spec`` (the penalised directions' ``s_i``,
+    shrink factors ``s_i / (s_i + lam)``), the squared projections ``c2`` of the data on
+    them, and ``rank_z`` unpenalised directions; ``m`` measured rows.  ``space`` "data":
+    ``RSS = sum (1 - f_i)^2 c2_i``; "parameter": from the normal equations, ``r0`` the
+    residual of the unpenalised fit.
+    """
+    top = spec.max(initial=0.0)
     if lams is None:
         lams = top * np.logspace(-DECADES_BELOW, DECADES_ABOVE, GRID_POINTS)
     lams = np.asarray(lams, dtype=float)
     f = spec[None, :] / (spec[None, :] + lams[:, None])          # shrink factors
-    if space == "data":
-        rss = ((1.0 - f) ** 2 * c2[None, :]).sum(axis=1)
-    else:
+    if space == "parameter":
         rss = r0 - (c2[None, :] * (spec[None, :] + 2 * lams[:, None])
                     / (spec[None, :] + lams[:, None]) ** 2).sum(axis=1)
+    else:
+        rss = ((1.0 - f) ** 2 * c2[None, :]).sum(axis=1)
     rss = np.clip(rss, 0.0, None)
     edf = rank_z + f.sum(axis=1)
     dof = m - edf
@@ -151,7 +161,11 @@ def gcv_weight(ne: NormalEquations, grid: Grid, n_free: int) -> WeightChoice:
     (too few measurements: ``M`` at most the number of unpenalised
     directions) the largest candidate is taken: the smoothest fit.
     """
-    curve = gcv_curve(ne, grid, n_free)
+    return choose(gcv_curve(ne, grid, n_free))
+
+
+def choose(curve: GCVCurve | None) -> WeightChoice:
+    """The weight minimising GCV on ``curve`` (see :func:`gcv_weight` for the fallbacks)."""
     if curve is None:  # the data see only the unpenalised directions
         return WeightChoice(1.0, float("nan"), float("nan"), "none")
     if not np.any(np.isfinite(curve.score)):

@@ -13,15 +13,16 @@ import numpy as np
 from ..errors import IdentifyError
 
 
-def _solve(problem) -> dict:
+def solve_clarabel(problem, what: str = "the l1 problem") -> dict:
+    """Solve the cvxpy ``problem`` with Clarabel; :class:`IdentifyError` naming ``what`` unless optimal."""
     import cvxpy as cp
 
     try:
         problem.solve(solver=cp.CLARABEL)
     except cp.error.SolverError as exc:  # pragma: no cover - solver failure
-        raise IdentifyError(f"the l1 solver failed: {exc}") from None
+        raise IdentifyError(f"{what}: the solver failed: {exc}") from None
     if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        raise IdentifyError(f"the l1 problem is {problem.status}")
+        raise IdentifyError(f"{what} is {problem.status}")
     stats = problem.solver_stats
     return {"status": problem.status, "iterations": getattr(stats, "num_iters", None)}
 
@@ -53,5 +54,5 @@ def basis_pursuit(
         constraints = [phi @ x == y / scale]
     else:
         constraints = [cp.norm(phi @ x - y / scale, 2) <= epsilon / scale]
-    info = _solve(cp.Problem(cp.Minimize(cp.norm1(penalised)), constraints))
+    info = solve_clarabel(cp.Problem(cp.Minimize(cp.norm1(penalised)), constraints))
     return np.asarray(x.value) * scale, info

@@ -12,16 +12,31 @@ the measured rows and so indistinguishable from the bias.  Eliminating the
 free columns by projection instead leaves such a column as rounding noise
 (~1e-16) that NNLS then weights by ~1e12.
 
-:func:`nnls_operator` runs the same Lawson-Hanson iteration for a
-matrix-free ``S``.  Its answer is defined by the pivoting when the
-minimiser is not unique, so it keeps the algorithm and changes only what
-it is fed: with ``M <= P`` the ``M`` measured rows of ``S`` built from the
-operator (never the dense ``S``), with ``M > P`` a ``P x P`` factor ``R``
-with ``R^T R = (A S)^T (A S)`` accumulated from operator products a block
-of columns at a time.  Lawson-Hanson takes the same steps on ``(R, z)``
-with ``R^T z = (A S)^T y`` as on ``(A S, y)`` -- its gradients and
-passive-set least-squares solutions are the same -- in ``O(P^2)`` memory
-however many rows were measured.
+:func:`nnls_operator` runs Lawson-Hanson for a matrix-free ``S``.  Its
+answer is defined by the pivoting when the minimiser is not unique, so it
+keeps the algorithm and changes only how the steps are computed:
+
+* small problems (the dense side ``min(M, P) x P'`` of the split problem at
+  most :data:`DENSE_LH_ENTRIES`): scipy's NNLS on the ``M`` measured rows of
+  ``S`` built from the operator (``M <= P``), or on a ``P x P`` factor ``R``
+  with ``R^T R = (A S)^T (A S)`` accumulated from operator products
+  (``M > P``; Lawson-Hanson takes the same steps on ``(R, z)`` with
+  ``R^T z = (A S)^T y`` as on ``(A S, y)``) -- the dense reference's own
+  code, in ``O(M P)`` memory;
+* larger ones: :func:`~.lawson_hanson.lawson_hanson` on the operator itself
+  -- the same path with the passive set's Cholesky factor updated one
+  column at a time, four operator products and ``O(k^2)`` work per step
+  for ``k`` passive columns, ``O(n + k^2)`` memory.  No dense block of
+  ``S`` at all, so it also runs where ``M x P`` would not fit (L = 200).
+
+Ties.  On the Preisach rows the largest gradient is often shared exactly
+by two columns (their difference lies in the span of the passive ones).
+Lawson-Hanson's rule gives it to the first in its order; scipy's NNLS,
+which computes the gradient in a Householder-transformed frame, gives it
+to whichever the rounding favours, and so do two correct implementations
+that round differently.  The minimiser is the same (the residual agrees to
+rounding) but the basic solution, and with it the modelling error, is not:
+see the README (*Speed and scale*) for how far apart such solutions are.
 """
 
 from __future__ import annotations
@@ -30,12 +45,14 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from ..errors import IdentifyError
 from ..operators import RegressorOperator
+from .lawson_hanson import lawson_hanson
 
-#: Largest dense block (bytes) the fast Lawson-Hanson path builds: the M x P measured rows
-#: of S (Lawson-Hanson works on a copy, so the peak is about twice this).
-MAX_DENSE_BYTES = 2**30
+#: Largest dense side (entries) of the split problem that scipy's NNLS is given; above it
+#: the operator path runs (the two break even near L = 45 on the benchmark's design).
+DENSE_LH_ENTRIES = 500_000
+#: Gradient entries below this many rounding errors of ``X^T r`` do not enter the passive set.
+GRADIENT_ULPS = 1000
 
 
 def nnls_free(a: np.ndarray, y: np.ndarray, n_nonneg: int) -> tuple[np.ndarray, dict]:
@@ -73,21 +90,48 @@ def nnls_operator(
     rows = np.asarray(rows, dtype=np.int64)
     y = np.asarray(y, dtype=float)
     P = operator.shape[1]
-    if rows.size <= P:
-        need = 8 * rows.size * P
-        if need > MAX_DENSE_BYTES:
-            raise IdentifyError(
-                f"Lawson-Hanson on {rows.size} measured rows and {P} parameters needs their "
-                f"{rows.size} x {P} block of S ({need / 2**30:.1f} GB, limit "
-                f"{MAX_DENSE_BYTES / 2**30:.0f} GB) and about M P operations per pivot; "
-                "use fewer levels or a method for the damped oscillation (cs_order_nn)"
-            )
-        w, info = nnls_free(operator.dense_rows(rows), y, n_nonneg)
-        return w, {**info, "reduced": False}
-    r, z = _gram_factor(operator, rows, y)
-    w, _ = nnls_free(r, z, n_nonneg)
+    split = 2 * P - n_nonneg
+    if min(rows.size, P) * split <= DENSE_LH_ENTRIES:
+        if rows.size <= P:
+            w, info = nnls_free(operator.dense_rows(rows), y, n_nonneg)
+            return w, {**info, "reduced": False, "path": "measured rows"}
+        r, z = _gram_factor(operator, rows, y)
+        w, _ = nnls_free(r, z, n_nonneg)
+        residual = operator.matvec(w)[rows] - y
+        return w, {"residual_norm": float(np.linalg.norm(residual)), "reduced": True, "path": "gram factor"}
+    return _nnls_on_operator(operator, rows, y, n_nonneg)
+
+
+def _nnls_on_operator(operator: RegressorOperator, rows: np.ndarray, y: np.ndarray, n_nonneg: int):
+    """Lawson-Hanson on ``[G, F, -F]`` given as products with the operator."""
+    n, P = operator.shape
+    free = P - n_nonneg
+    scale = float(np.max(np.abs(y))) or 1.0
+    b = y / scale
+
+    def matvec(x):
+        w = x[:P].copy()
+        w[n_nonneg:] -= x[P:]
+        return operator.matvec(w)[rows]
+
+    def rmatvec(r):
+        full = np.zeros(n)
+        full[rows] = r
+        g = operator.rmatvec(full)
+        return np.concatenate([g, -g[n_nonneg:]])
+
+    # rounding of X^T r: entries of S are at most 1 (cells, mu0) or |v| (c_d)
+    largest = max(1.0, float(np.max(np.abs(operator.inputs[rows])))) if free else 1.0
+    tol = GRADIENT_ULPS * np.finfo(float).eps * np.sqrt(rows.size) * largest * float(np.linalg.norm(b))
+    result = lawson_hanson(matvec, rmatvec, P + free, b, tol=tol, max_iter=50 * (P + free))
+    w = result.x[:P].copy()
+    w[n_nonneg:] -= result.x[P:]
+    w *= scale
     residual = operator.matvec(w)[rows] - y
-    return w, {"residual_norm": float(np.linalg.norm(residual)), "reduced": True}
+    return w, {
+        "residual_norm": float(np.linalg.norm(residual)), "reduced": False, "path": "operator",
+        "entered": result.entered, "removed": result.removed, "rejected": result.rejected,
+    }
 
 
 def _gram_factor(operator: RegressorOperator, rows: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -33,6 +33,10 @@ from ..errors import IdentifyError
 
 #: Interior-point tolerances (relative gap and feasibility).
 TOLERANCE = 1e-9
+#: SuperLU settings for the symmetric positive definite Gram matrices: a symmetric
+#: (minimum degree on ``G + G^T``) ordering and diagonal pivots, several times faster
+#: than the default column ordering with partial pivoting, and with less fill.
+SPD_LU = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0, "options": {"SymmetricMode": True}}
 
 
 def _settings() -> "clarabel.DefaultSettings":
@@ -126,7 +130,7 @@ def _active_set_projection(cells, y, active: np.ndarray, max_rounds: int = 40) -
 def _solve_gram(rows, rhs: np.ndarray) -> np.ndarray | None:
     """``(rows rows^T)^{-1} rhs`` by sparse LU (the Gram matrix of a few-entries-per-row ``T``)."""
     try:
-        return scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(rows @ rows.T)).solve(rhs)
+        return scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(rows @ rows.T), **SPD_LU).solve(rhs)
     except RuntimeError:  # singular: dependent rows
         return None
 
