@@ -7,7 +7,7 @@ import pytest
 
 from identify import damped_oscillation, random_input
 
-from .cli import assert_one_line_error, rig
+from .cli import assert_one_line_error, rig, rig_here
 from .conftest import digest, known_model, write_csv
 
 
@@ -102,15 +102,15 @@ def test_bad_arguments(damped_csv, tmp_path):
     _, path = damped_csv
     before = digest(path)
     assert_one_line_error(rig("identify", path, "--levels", 0), "levels")
-    assert_one_line_error(rig("identify", path), "--levels")
-    assert_one_line_error(rig("identify", path, "-L", 6, "--measurements", 24), "between 1 and N=23")
-    assert_one_line_error(rig("identify", path, "-L", 6, "--measurements", 0), "between 1 and N")
+    assert_one_line_error(rig_here("identify", path), "--levels")
+    assert_one_line_error(rig_here("identify", path, "-L", 6, "--measurements", 24), "between 1 and N=23")
+    assert_one_line_error(rig_here("identify", path, "-L", 6, "--measurements", 0), "between 1 and N")
     assert_one_line_error(rig("identify", path, "-L", 6, "--method", "nope"), "nope")
-    assert_one_line_error(rig("identify", tmp_path / "missing.csv", "-L", 3), "no such file")
+    assert_one_line_error(rig_here("identify", tmp_path / "missing.csv", "-L", 3), "no such file")
     # right length but a different grid: inputs not on its walls
-    assert_one_line_error(rig("identify", path, "-L", 6, "--v-max", 3.3, "--method", "cs"), "not on a wall")
-    assert_one_line_error(rig("identify", path, "-L", 7, "--method", "cs"), "square")
-    assert_one_line_error(rig("identify", path, "-L", 6, "--v-min", 4, "--v-max", 1), "v_max > v_min")
+    assert_one_line_error(rig_here("identify", path, "-L", 6, "--v-max", 3.3, "--method", "cs"), "not on a wall")
+    assert_one_line_error(rig_here("identify", path, "-L", 7, "--method", "cs"), "square")
+    assert_one_line_error(rig_here("identify", path, "-L", 6, "--v-min", 4, "--v-max", 1), "v_max > v_min")
     assert digest(path) == before
 
 
@@ -120,5 +120,5 @@ def test_predict_bad_model(tmp_path, damped_csv):
     bad.write_text("{not json")
     assert_one_line_error(rig("predict", bad, path, "--json"), "not a JSON model")
     bad.write_text(json.dumps({"walls": [0, 1], "mu0": 0}))
-    assert_one_line_error(rig("predict", bad, path, "--json"), "missing")
-    assert_one_line_error(rig("predict", tmp_path / "none.json", path), "no such file")
+    assert_one_line_error(rig_here("predict", bad, path, "--json"), "missing")
+    assert_one_line_error(rig_here("predict", tmp_path / "none.json", path), "no such file")
