@@ -17,7 +17,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import IdentifyError
+from ..errors import IdentifyError, MethodNotApplicable
 from ..model import PreisachModel
 from .problem import Problem
 
@@ -31,6 +31,8 @@ class Method(ABC):
     needs_square: ClassVar[bool] = False
     #: Needs the order of all outputs (the 'CS Order' assumption).
     needs_order: ClassVar[bool] = False
+    #: Needs inputs made of first-order reversal curves (``problem.curves``).
+    needs_curves: ClassVar[bool] = False
 
     def fit(self, problem: Problem) -> "Method":
         """Identify a model from ``problem``; returns ``self``."""
@@ -39,7 +41,10 @@ class Method(ABC):
                 f"M={problem.n_measured} measurements exceed the N={problem.n} applied inputs"
             )
         if self.needs_square:
-            problem.square_lu  # raises MethodNotApplicable with the reason
+            try:
+                problem.square_lu  # raises MethodNotApplicable with the reason
+            except MethodNotApplicable as exc:
+                raise MethodNotApplicable(f"{self.name} {exc}") from None
         if self.needs_order:
             problem.require_order(self.name)
         start = time.perf_counter()

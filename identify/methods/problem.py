@@ -51,6 +51,9 @@ class Problem:
     order: ``(n,)`` the permutation sorting all ``n`` outputs ascending,
         when all of them are known (needed by the ``cs_order`` methods), else
         ``None``.
+    curves: ``(n,)`` the curve each applied row belongs to (-1: none), for
+        inputs made of first-order reversal curves (needed by ``everett``),
+        else ``None``.
     """
 
     grid: Grid
@@ -60,6 +63,7 @@ class Problem:
     rows: np.ndarray
     measured: np.ndarray
     order: np.ndarray | None = None
+    curves: np.ndarray | None = None
 
     @classmethod
     def build(
@@ -72,6 +76,7 @@ class Problem:
         initial: InitialState = "negative",
         history: np.ndarray | None = None,
         regressor: np.ndarray | None = None,
+        curves: np.ndarray | None = None,
     ) -> "Problem":
         """A problem from the applied inputs (V) and the outputs (um) of every row.
 
@@ -79,6 +84,7 @@ class Problem:
         defaults to every row with a finite output.  When every output is
         known, ``order`` is their ascending sort (the paper's assumption for
         'CS Order').  ``regressor`` may be passed when already computed.
+        ``curves`` ``(n,)`` numbers the curve of every applied row (-1: none).
         """
         v = check_inputs(inputs)
         y = np.asarray(outputs, dtype=float)
@@ -104,8 +110,13 @@ class Problem:
             regressor = regressor_matrix(grid, v, thermal_term, initial, history)
         elif regressor.shape != (v.size, n_parameters(grid, thermal_term)):
             raise IdentifyError("regressor shape does not match the inputs and grid")
+        if curves is not None:
+            curves = np.asarray(curves)
+            if curves.shape != v.shape or (curves.size and not np.issubdtype(curves.dtype, np.integer)):
+                raise IdentifyError(f"curve index must be {v.size} whole numbers, one per input")
+            curves = curves.astype(np.int64)
         order = np.argsort(y, kind="stable") if np.all(known) else None
-        return cls(grid, v, regressor, thermal_term, rows, y[rows].copy(), order)
+        return cls(grid, v, regressor, thermal_term, rows, y[rows].copy(), order, curves)
 
     # ---------------------------------------------------------- dimensions
     @property
@@ -151,6 +162,11 @@ class Problem:
         L = self.grid.levels
         P = self.n_parameters
         design = "damped oscillation" + (" plus the thermal point" if self.thermal_term else "")
+        if self.curves is not None and np.any(self.curves >= 0):
+            raise MethodNotApplicable(
+                f"does not apply to FORC data (first-order reversal curves): it needs the square {design} "
+                f"design of the grid, {P} applied inputs on its walls for L={L}; use ls, smooth_nn or everett"
+            )
         if self.n != P:
             raise MethodNotApplicable(
                 f"needs the square {design} design: {P} applied inputs for L={L}, got {self.n}"
