@@ -6,7 +6,11 @@ no printing.  Modules:
 * :mod:`identify.grid` -- walls, cells and their numbering;
 * :mod:`identify.memory` -- the memory curve and exact signed areas;
 * :mod:`identify.regressor` -- the regressor matrix ``S`` of equation (22);
+* :mod:`identify.everett` -- the Everett function and a memory curve's Everett terms;
+* :mod:`identify.operators` -- ``S`` as a matrix-free operator;
+* :mod:`identify.square` -- sparse solves and the sparse inverse of the square design;
 * :mod:`identify.model` -- :class:`PreisachModel`;
+* :mod:`identify.forward` -- the fast forward model (whole sequences, or step by step);
 * :mod:`identify.excitation` -- the damped oscillation and random inputs;
 * :mod:`identify.dct` -- the orthonormal DCT ``Psi``;
 * :mod:`identify.methods` -- the identification methods.

@@ -112,7 +112,7 @@ def fit_sequence(
     estimator = make_method(method, **(settings or {}))
     problem = Problem.build(grid, inputs, outputs, rows, thermal_term, initial, history, curves=curves)
     estimator.fit(problem)
-    fitted = problem.regressor[problem.rows] @ estimator.parameters_
+    fitted = problem.fitted(estimator.parameters_)[problem.rows]
     err = fitted - problem.measured
     return FitReport(
         method=method,

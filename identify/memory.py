@@ -25,6 +25,7 @@ This is exact for *any* input value, not only for inputs on the walls.
 
 from __future__ import annotations
 
+import bisect
 from typing import Literal
 
 import numpy as np
@@ -75,12 +76,18 @@ class MemoryCurve:
         """Corner coordinates ``(a, b)``, each shape ``(K,)``."""
         return np.array(self._a, dtype=float), np.array(self._b, dtype=float)
 
-    def apply(self, x: float) -> None:
-        """Move the input to coordinate ``x`` (saturated to ``[0, L]``)."""
+    def apply(self, x: float) -> int:
+        """Move the input to coordinate ``x`` (saturated to ``[0, L]``).
+
+        Returns the index of the first corner that changed: corners before
+        it are untouched, corners from it on were replaced (``len(corners)``
+        before the move when nothing changed).  Matrix-free operators use it
+        to update only the part of the staircase that moved.
+        """
         x = min(max(float(x), 0.0), float(self.levels))
         a, b = self._a, self._b
+        k = len(a)
         if x > self.position:
-            k = len(a)
             while k > 0 and a[k - 1] <= x:
                 k -= 1
             del a[k:], b[k:]
@@ -97,6 +104,21 @@ class MemoryCurve:
                 a.pop()
                 b.pop()
         self.position = x
+        return k
+
+    def plus_below(self, alpha: float) -> float:
+        """At up-threshold ``alpha``: the hysterons with ``beta`` below this are +1 (0: none)."""
+        k = bisect.bisect_left(self._a, -alpha, key=lambda a: -a)  # corners with a > alpha
+        return min(self._b[k - 1], alpha) if k else 0.0
+
+    def plus_left(self, beta: float) -> float:
+        """At down-threshold ``beta``: the hysterons with ``alpha`` below this are +1 (``beta``: none)."""
+        k = bisect.bisect_right(self._b, beta)  # first corner with b > beta
+        return self._a[k] if k < len(self._a) else beta
+
+    def tail(self, k: int) -> tuple[list[float], list[float]]:
+        """Copies of the corners from index ``k`` on, as lists ``(a[k:], b[k:])``."""
+        return self._a[k:], self._b[k:]
 
     def replay(self, xs: np.ndarray) -> None:
         """Apply a whole sequence of coordinates, in order."""

@@ -18,8 +18,9 @@ import numpy as np
 
 from .errors import IdentifyError
 from .grid import Grid
-from .memory import CellStates, InitialState
-from .regressor import check_inputs, initial_curve, n_parameters
+from . import forward
+from .memory import InitialState
+from .regressor import n_parameters
 
 #: Version of the JSON-safe dictionary written by :meth:`PreisachModel.to_dict`.
 MODEL_FORMAT = 1
@@ -94,14 +95,15 @@ class PreisachModel:
 
         The memory starts in the ``initial`` saturation, then sees
         ``history`` (not returned); inputs beyond the grid range saturate.
-        Memory use is independent of ``n``.
+        Uses the Everett function of the density (:mod:`identify.forward`):
+        ``O(n + L^2)`` time and memory.  For one input at a time (inverse
+        compensation) use :meth:`state`.
         """
-        v = check_inputs(inputs)
-        states = CellStates(self.grid, initial_curve(self.grid, initial, history))
-        out = np.empty(v.size)
-        for n, x in enumerate(self.grid.coordinates(v)):
-            out[n] = states.apply(x) @ self.density
-        return out + self.mu0 + self.c_d * v
+        return forward.predict(self, inputs, initial, history)
+
+    def state(self, initial: InitialState = "negative", history: np.ndarray | None = None) -> "forward.HysteresisState":
+        """The model with its memory, to be stepped one input at a time."""
+        return forward.HysteresisState(self, initial, history)
 
     # ------------------------------------------------------------ JSON
     def to_dict(self) -> dict[str, Any]:

@@ -137,6 +137,8 @@ class IdentifyOptions:
     name: str | None = None
     force: bool = False
     partial: bool = False
+    #: The methods' ``solver`` setting ("fast" or "dense"), or None for their default.
+    solver: str | None = None
     curves: str = "all"
 
 
@@ -166,6 +168,7 @@ class IdentifyJob:
     store_as: str | None = None
     partial: str | None = None
     label: str | None = None
+    solver: str | None = None
     curves: np.ndarray | None = None
     curve_selection: str = "all"
 
@@ -224,6 +227,7 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
         store_as=_store_as(data, o, grid),
         partial=partial_state(s) if s is not None and s.is_partial else None,
         label=label,
+        solver=o.solver,
         curves=data.curves,
         curve_selection=o.curves,
     )
@@ -233,7 +237,8 @@ def fit_job(job: IdentifyJob) -> FitReport:
     """Fit one planned job (runs in a worker process in batches); the model carries the run's units."""
     try:
         report = fit_sequence(job.grid, job.inputs, job.outputs, job.method, rows=job.rows,
-                              thermal_term=job.thermal_term, curves=job.curves)
+                              thermal_term=job.thermal_term,
+                              settings=None if job.solver is None else {"solver": job.solver}, curves=job.curves)
     except IdentifyError as exc:
         if job.label is None:
             raise

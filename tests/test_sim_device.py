@@ -38,7 +38,7 @@ def test_steady_state_reproduces_equation_22_exactly_through_the_rig():
     assert clock.now() == pytest.approx(v.size * 20.0)
 
 
-def test_device_output_is_bit_identical_to_the_model_when_settled():
+def test_device_output_is_the_model_when_settled():
     clock = VirtualClock()
     dev = SimVO2(SimParams(levels=12, **QUIET), clock)
     truth = dev.true_model()
@@ -48,7 +48,8 @@ def test_device_output_is_bit_identical_to_the_model_when_settled():
         dev.apply_voltage(x)
         clock.sleep(50.0)
         out.append(dev.deflection_um())
-    assert np.array_equal(out, truth.predict(v))
+    # equal to rounding: the device sums signed areas cell by cell, predict() Everett terms
+    np.testing.assert_allclose(out, truth.predict(v), rtol=0, atol=1e-12)
 
 
 def test_first_order_thermal_lag_by_hand():
@@ -90,7 +91,7 @@ def test_a_short_dwell_measures_a_different_memory_state():
             clock.sleep(dwell)
             y.append(dev.deflection_um())
         outs[dwell] = np.array(y)
-    np.testing.assert_array_equal(outs[settled_dwell(p)], truth.predict(v))
+    np.testing.assert_allclose(outs[settled_dwell(p)], truth.predict(v), rtol=0, atol=1e-12)
     assert np.max(np.abs(outs[0.2] - truth.predict(v))) > 1.0
 
 

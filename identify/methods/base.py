@@ -7,6 +7,11 @@ attributes (ending in ``_``):
 ``parameters_`` ``(P,)`` the vector ``w``; ``model_`` the
 :class:`~identify.model.PreisachModel`; ``seconds_`` wall time of the fit;
 ``info_`` solver diagnostics (status, iterations, ...).
+
+Every method has the setting ``solver``: ``"fast"`` (the default) uses the
+matrix-free operator and the structured solvers, ``"dense"`` the dense
+reference formulation (dense ``S``, cvxpy with Clarabel, scipy's NNLS) --
+kept to check the fast path against (``rig bench``).
 """
 
 from __future__ import annotations
@@ -21,6 +26,9 @@ from ..errors import IdentifyError, MethodNotApplicable
 from ..model import PreisachModel
 from .problem import Problem
 
+#: The values of every method's ``solver`` setting.
+SOLVERS = ("fast", "dense")
+
 
 class Method(ABC):
     """Base class of the identification methods."""
@@ -34,20 +42,33 @@ class Method(ABC):
     #: Needs inputs made of first-order reversal curves (``problem.curves``).
     needs_curves: ClassVar[bool] = False
 
+    def __init__(self, solver: str = "fast") -> None:
+        if solver not in SOLVERS:
+            raise IdentifyError(f"unknown solver {solver!r}; choose from {', '.join(SOLVERS)}")
+        self.solver = solver
+
+    @property
+    def dense(self) -> bool:
+        """Whether this fit uses the dense reference formulation (``solver="dense"``)."""
+        return getattr(self, "solver", "fast") == "dense"
+
     def fit(self, problem: Problem) -> "Method":
         """Identify a model from ``problem``; returns ``self``."""
         if problem.n_measured > problem.n:
             raise IdentifyError(
                 f"M={problem.n_measured} measurements exceed the N={problem.n} applied inputs"
             )
+        dense = self.dense
+        start = time.perf_counter()
         if self.needs_square:
             try:
-                problem.square_lu  # raises MethodNotApplicable with the reason
+                problem.require_square()  # raises MethodNotApplicable with the reason
+                if dense:
+                    problem.square_lu  # and the dense path checks S numerically
             except MethodNotApplicable as exc:
                 raise MethodNotApplicable(f"{self.name} {exc}") from None
         if self.needs_order:
             problem.require_order(self.name)
-        start = time.perf_counter()
         w, info = self._solve(problem)
         self.seconds_ = time.perf_counter() - start
         w = np.asarray(w, dtype=float)

@@ -11,15 +11,25 @@ positions of the measured rows, and ``w = S_order^{-1} Psi^{-1} q*``.
 
 'CS Without DCT' (figure 4a): ``min ||mu||_1 s.t. A S w = y_b`` directly on
 the cell weights (``mu0`` and ``c_d`` unpenalised).
+
+Solvers (setting ``solver``): ``"dense"`` is the reference -- cvxpy with
+Clarabel on the dense ``A Psi^{-1}`` or ``A S`` (:mod:`.l1`) and a dense LU
+of ``S``.  ``"fast"`` solves the l1 problems on the partial DCT with fast
+transforms (:mod:`.basis_pursuit`) and ``S^{-1}`` with the sparse
+factorisation (:mod:`identify.square`); ``A S`` of 'CS Without DCT' has no
+orthonormal rows, so that one is solved in output space with the sparse
+``S^{-1}`` (:mod:`.output_space`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..dct import dct_matrix
+from ..dct import dct_matrix, idct
 from .base import Method
+from .basis_pursuit import basis_pursuit_dct
 from .l1 import basis_pursuit
+from .output_space import l1_outputs
 from .problem import Problem
 
 
@@ -28,14 +38,21 @@ class _Compressive(Method):
 
     needs_square = True
 
-    def __init__(self, epsilon: float | None = None) -> None:
+    def __init__(self, epsilon: float | None = None, solver: str = "fast") -> None:
+        super().__init__(solver)
         self.epsilon = epsilon
 
-    def _recover_outputs(self, problem: Problem, positions: np.ndarray) -> tuple[np.ndarray, dict]:
-        """``Psi^{-1} q*`` from the measurements at ``positions`` of the transformed vector."""
-        psi_inv = dct_matrix(problem.n).T
-        q, info = basis_pursuit(psi_inv[positions], problem.measured, self.epsilon)
-        return psi_inv @ q, info
+    def _recover_outputs(self, problem: Problem, positions: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, dict]:
+        """``Psi^{-1} q*`` from the measurements ``y`` at ``positions`` of the transformed vector."""
+        if self.dense:
+            psi_inv = dct_matrix(problem.n).T
+            q, info = basis_pursuit(psi_inv[positions], y, self.epsilon)
+            return psi_inv @ q, info
+        q, info = basis_pursuit_dct(problem.n, positions, y, self.epsilon)
+        return idct(q), info
+
+    def _solve_square(self, problem: Problem, b_hat: np.ndarray) -> np.ndarray:
+        return problem.solve_square(b_hat, solver="dense" if self.dense else "fast")
 
 
 class CompressiveSensing(_Compressive):
@@ -44,8 +61,8 @@ class CompressiveSensing(_Compressive):
     name = "cs"
 
     def _solve(self, problem: Problem):
-        b_hat, info = self._recover_outputs(problem, problem.rows)
-        return problem.solve_square(b_hat), info
+        b_hat, info = self._recover_outputs(problem, problem.rows, problem.measured)
+        return self._solve_square(problem, b_hat), info
 
 
 class CompressiveSensingOrder(_Compressive):
@@ -62,14 +79,12 @@ class CompressiveSensingOrder(_Compressive):
         # y_b in the paper is A b_order: put the measurements in sorted order
         positions = rank[problem.rows]
         sort = np.argsort(positions)
-        psi_inv = dct_matrix(problem.n).T
-        q, info = basis_pursuit(psi_inv[positions[sort]], problem.measured[sort], self.epsilon)
-        b_order = psi_inv @ q
+        b_order, info = self._recover_outputs(problem, positions[sort], problem.measured[sort])
         return b_order[rank], info
 
     def _solve(self, problem: Problem):
         b_hat, info = self.reconstruct_sorted(problem)
-        return problem.solve_square(b_hat), info
+        return self._solve_square(problem, b_hat), info
 
 
 class CompressiveSensingNoDCT(Method):
@@ -78,9 +93,14 @@ class CompressiveSensingNoDCT(Method):
     name = "cs_nodct"
     needs_square = True
 
-    def __init__(self, epsilon: float | None = None) -> None:
+    def __init__(self, epsilon: float | None = None, solver: str = "fast") -> None:
+        super().__init__(solver)
         self.epsilon = epsilon
 
     def _solve(self, problem: Problem):
-        free = problem.n_parameters - problem.n_cells
-        return basis_pursuit(problem.measured_regressor, problem.measured, self.epsilon, free=free)
+        if self.dense:
+            free = problem.n_parameters - problem.n_cells
+            return basis_pursuit(problem.measured_regressor, problem.measured, self.epsilon, free=free)
+        return l1_outputs(
+            problem.sparse_inverse, problem.n_cells, problem.rows, problem.measured, self.epsilon
+        )

@@ -49,7 +49,8 @@ class EverettFORC(Method):
     name = "everett"
     needs_curves = True
 
-    def __init__(self, nonnegative: bool = False) -> None:
+    def __init__(self, nonnegative: bool = False, solver: str = "fast") -> None:
+        super().__init__(solver)  # both solvers take the same path: second differences, one small fit
         self.nonnegative = bool(nonnegative)
 
     def _solve(self, problem: Problem) -> tuple[np.ndarray, dict[str, Any]]:

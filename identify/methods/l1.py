@@ -2,18 +2,20 @@
 
 Written to read like the paper's equations; the right-hand side is scaled to
 unit size before solving and the solution scaled back, so the solver's
-tolerances mean the same thing whatever the output units.
+tolerances mean the same thing whatever the output units.  cvxpy is
+imported on first use: only the dense path needs it (about a second).
 """
 
 from __future__ import annotations
 
-import cvxpy as cp
 import numpy as np
 
 from ..errors import IdentifyError
 
 
-def _solve(problem: cp.Problem) -> dict:
+def _solve(problem) -> dict:
+    import cvxpy as cp
+
     try:
         problem.solve(solver=cp.CLARABEL)
     except cp.error.SolverError as exc:  # pragma: no cover - solver failure
@@ -40,6 +42,8 @@ def basis_pursuit(
     epsilon: noise bound on ``||phi x - y||_2`` in output units, or None for
         the equality-constrained problem.
     """
+    import cvxpy as cp
+
     phi = np.asarray(phi, dtype=float)
     y = np.asarray(y, dtype=float)
     scale = float(np.max(np.abs(y))) or 1.0

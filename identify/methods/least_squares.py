@@ -3,12 +3,18 @@
 ``min ||A S w - y_b||_2`` with every cell weight >= 0 and ``mu0``, ``c_d``
 free -- Matlab's ``lsqnonneg`` as used by the paper.  Works on any input
 history (the design need not be square).
+
+With fewer measurements than parameters the minimiser is not unique and
+the answer is the one Lawson-Hanson's pivoting picks (:mod:`.nnls`), so
+both solvers run Lawson-Hanson: ``"dense"`` on the measured rows of the
+dense ``S``, ``"fast"`` on the measured rows built from the matrix-free
+operator (:func:`.nnls.nnls_operator`), which never forms ``S``.
 """
 
 from __future__ import annotations
 
 from .base import Method
-from .nnls import nnls_free
+from .nnls import nnls_free, nnls_operator
 from .problem import Problem
 
 
@@ -17,4 +23,6 @@ class LeastSquares(Method):
 
     def _solve(self, problem: Problem):
         problem.require_thermal_identifiable(self.name)
-        return nnls_free(problem.measured_regressor, problem.measured, problem.n_cells)
+        if self.dense:
+            return nnls_free(problem.measured_regressor, problem.measured, problem.n_cells)
+        return nnls_operator(problem.operator, problem.rows, problem.measured, problem.n_cells)

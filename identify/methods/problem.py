@@ -3,22 +3,32 @@
 The whole applied input sequence defines the regressor ``S`` (every row's
 memory state depends on everything applied before it); only the rows in
 ``rows`` were measured (``A`` in equation (12) selects them).
+
+Nothing large is built up front.  ``operator`` (matrix-free ``S``,
+:mod:`identify.operators`) and, for the square damped-oscillation design,
+``square_solver`` / ``sparse_inverse`` (:mod:`identify.square`) are what the
+fast solvers use; the dense ``regressor`` and ``square_lu`` are built only
+when a dense (reference) path asks for them -- at L = 200 the dense ``S``
+would take 3.2 GB.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 import scipy.linalg
-from scipy.sparse.linalg import LinearOperator, aslinearoperator
+import scipy.sparse
+from scipy.sparse.linalg import LinearOperator
 
 from ..errors import IdentifyError, MethodNotApplicable
 from ..excitation import damped_oscillation
 from ..grid import Grid
 from ..memory import InitialState
+from ..operators import RegressorOperator
 from ..regressor import check_inputs, n_parameters, regressor_matrix
+from ..square import SquareSolver
 
 #: Reciprocal condition number below which a square design counts as singular.
 SINGULAR_RCOND = 1e-12
@@ -44,25 +54,32 @@ class Problem:
     ----------
     grid: the discretisation.
     inputs: ``(n,)`` the whole applied input sequence (V).
-    regressor: ``(n, P)`` the matrix ``S`` (see :mod:`identify.regressor`).
     thermal_term: whether ``S`` has the ``c_d`` column.
     rows: ``(M,)`` sorted indices of the measured rows.
     measured: ``(M,)`` the outputs measured at ``rows`` (um).
     order: ``(n,)`` the permutation sorting all ``n`` outputs ascending,
         when all of them are known (needed by the ``cs_order`` methods), else
         ``None``.
+    initial, history: the memory before the first input (see
+        :func:`identify.regressor.initial_curve`).
     curves: ``(n,)`` the curve each applied row belongs to (-1: none), for
         inputs made of first-order reversal curves (needed by ``everett``),
         else ``None``.
+
+    ``regressor`` (dense ``S``, ``(n, P)``) and ``operator`` (the same as a
+    matrix-free :class:`~identify.operators.RegressorOperator`) are built on
+    first use.
     """
 
     grid: Grid
     inputs: np.ndarray
-    regressor: np.ndarray
     thermal_term: bool
     rows: np.ndarray
     measured: np.ndarray
     order: np.ndarray | None = None
+    initial: InitialState = "negative"
+    history: np.ndarray | None = None
+    dense: np.ndarray | None = field(default=None, repr=False)
     curves: np.ndarray | None = None
 
     @classmethod
@@ -83,7 +100,8 @@ class Problem:
         ``outputs`` may hold NaN at rows that were not measured; ``rows``
         defaults to every row with a finite output.  When every output is
         known, ``order`` is their ascending sort (the paper's assumption for
-        'CS Order').  ``regressor`` may be passed when already computed.
+        'CS Order').  ``regressor`` (the dense ``S``) may be passed when
+        already computed; otherwise nothing is built until a method asks.
         ``curves`` ``(n,)`` numbers the curve of every applied row (-1: none).
         """
         v = check_inputs(inputs)
@@ -106,17 +124,17 @@ class Problem:
         if not np.all(known[rows]):
             bad = rows[~known[rows]][0]
             raise IdentifyError(f"output of measured row {bad} is not finite")
-        if regressor is None:
-            regressor = regressor_matrix(grid, v, thermal_term, initial, history)
-        elif regressor.shape != (v.size, n_parameters(grid, thermal_term)):
+        if regressor is not None and regressor.shape != (v.size, n_parameters(grid, thermal_term)):
             raise IdentifyError("regressor shape does not match the inputs and grid")
+        if history is not None:
+            history = check_inputs(history, "history input")
         if curves is not None:
             curves = np.asarray(curves)
             if curves.shape != v.shape or (curves.size and not np.issubdtype(curves.dtype, np.integer)):
                 raise IdentifyError(f"curve index must be {v.size} whole numbers, one per input")
             curves = curves.astype(np.int64)
         order = np.argsort(y, kind="stable") if np.all(known) else None
-        return cls(grid, v, regressor, thermal_term, rows, y[rows].copy(), order, curves)
+        return cls(grid, v, thermal_term, rows, y[rows].copy(), order, initial, history, regressor, curves)
 
     # ---------------------------------------------------------- dimensions
     @property
@@ -136,28 +154,45 @@ class Problem:
     def n_cells(self) -> int:
         return self.grid.n_cells
 
+    # ---------------------------------------------------------- the regressor
     @cached_property
-    def operator(self) -> LinearOperator:
-        """``S`` as a linear operator (``matvec`` = ``S w``, ``rmatvec`` = ``S^T r``).
+    def operator(self) -> RegressorOperator:
+        """``S`` as a matrix-free operator (``matvec`` = ``S w``, ``rmatvec`` = ``S^T r``).
 
-        Solvers that only need products should use this rather than the
-        dense ``regressor``, so they scale to large L.
+        ``O(n + L^2)`` per product and in memory (:mod:`identify.operators`);
+        ``operator.rows(problem.rows)`` is ``A S``.  Solvers that only need
+        products use this, so they scale to large L.
         """
-        return aslinearoperator(self.regressor)
+        return RegressorOperator(self.grid, self.inputs, self.thermal_term, self.initial, self.history)
+
+    @property
+    def measured_operator(self) -> LinearOperator:
+        """``A S`` as an operator, shape ``(M, P)``."""
+        return self.operator.rows(self.rows)
+
+    @cached_property
+    def regressor(self) -> np.ndarray:
+        """The dense ``S``, shape ``(n, P)``: built on first use (dense paths only)."""
+        if self.dense is not None:
+            return self.dense
+        return regressor_matrix(self.grid, self.inputs, self.thermal_term, self.initial, self.history)
 
     @property
     def measured_regressor(self) -> np.ndarray:
-        """``A S``: the rows of ``S`` that were measured, shape ``(M, P)``."""
+        """``A S``: the rows of the dense ``S`` that were measured, shape ``(M, P)``."""
         return self.regressor[self.rows]
 
-    # ---------------------------------------------------------- square design
-    @cached_property
-    def square_lu(self) -> tuple[np.ndarray, np.ndarray]:
-        """LU factors of the square ``S`` of the damped-oscillation design.
+    def fitted(self, w: np.ndarray) -> np.ndarray:
+        """``S w`` (um) at every applied input, ``(n,)``, without the dense ``S``."""
+        return self.operator.matvec(np.asarray(w, dtype=float))
 
-        Raises :class:`MethodNotApplicable` unless the applied input is the
-        damped oscillation of this grid (with the thermal point when the
-        thermal term is on), so that ``S`` is square and invertible.
+    # ---------------------------------------------------------- square design
+    def require_square(self) -> None:
+        """Raise :class:`MethodNotApplicable` unless this is the square damped-oscillation design.
+
+        The applied input must be the damped oscillation of this grid (with
+        the thermal point when the thermal term is on), so that ``S`` is
+        square and invertible (Proposition 1).
         """
         L = self.grid.levels
         P = self.n_parameters
@@ -188,16 +223,42 @@ class Problem:
                 f"input {k} ({self.inputs[k]:.6g}) differs from the {design} "
                 f"({expected[k]:.6g}) of this grid"
             )
+
+    @cached_property
+    def square_lu(self) -> tuple[np.ndarray, np.ndarray]:
+        """Dense LU factors of the square ``S`` (the dense reference path).
+
+        Raises :class:`MethodNotApplicable` unless the design is square
+        (:meth:`require_square`) and ``S`` is numerically invertible.
+        """
+        self.require_square()
         lu, piv = scipy.linalg.lu_factor(self.regressor, check_finite=False)
         anorm = np.abs(self.regressor).sum(axis=0).max()
         rcond, _ = scipy.linalg.lapack.dgecon(lu, anorm, norm="1")
         if rcond < SINGULAR_RCOND:
-            raise MethodNotApplicable(f"the {design} matrix S is singular (rcond {rcond:.1e})")
+            raise MethodNotApplicable(f"the square design matrix S is singular (rcond {rcond:.1e})")
         return lu, piv
 
-    def solve_square(self, outputs: np.ndarray) -> np.ndarray:
-        """``w = S^{-1} b`` for a full output vector ``b`` of length ``n``."""
-        return scipy.linalg.lu_solve(self.square_lu, outputs, check_finite=False)
+    @cached_property
+    def square_solver(self) -> SquareSolver:
+        """Sparse factorisation of the square design (:class:`~identify.square.SquareSolver`)."""
+        self.require_square()
+        return SquareSolver(self.operator)
+
+    @property
+    def sparse_inverse(self) -> scipy.sparse.csr_array:
+        """The explicit sparse ``S^{-1}``, ``(P, n)``, about ``4 n`` non-zeros (square design)."""
+        return self.square_solver.inverse
+
+    def solve_square(self, outputs: np.ndarray, solver: str = "fast") -> np.ndarray:
+        """``w = S^{-1} b`` for a full output vector ``b`` of length ``n``.
+
+        ``solver="fast"`` uses the sparse factorisation, ``"dense"`` the
+        dense LU of ``S``.
+        """
+        if solver == "dense":
+            return scipy.linalg.lu_solve(self.square_lu, outputs, check_finite=False)
+        return self.square_solver.solve(outputs)
 
     def require_thermal_identifiable(self, method: str) -> None:
         """Reject a thermal term that the measured rows cannot identify.

@@ -1,6 +1,7 @@
 """All ``rig`` subcommands, one module each; add new ones to :data:`COMMANDS`."""
 
 from .acquire import acquire
+from .bench import bench
 from .demo import demo
 from .export import export
 from .identify import identify
@@ -12,4 +13,4 @@ from .serve_sim import serve_sim
 from .study import study
 from .validate import validate
 
-COMMANDS = [demo, identify, predict, import_, export, selftest, serve_sim, acquire, validate, report, study]
+COMMANDS = [demo, identify, predict, import_, export, selftest, serve_sim, acquire, validate, report, study, bench]

@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from identify import METHODS
+from identify.methods.base import SOLVERS
 
 from ..curve_selection import CURVE_CHOICES
 from ..errors import UserError
@@ -52,6 +53,11 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
     "--method", type=click.Choice(list(METHODS)), default="ls", show_default=True,
     help="Identification method.",
 )
+@click.option(
+    "--solver", type=click.Choice(list(SOLVERS)), default=None,
+    help="fast (the default): matrix-free operators and structured solvers; "
+    "dense: the dense reference formulation (small problems only).",
+)
 @click.option("--measurements", "-M", type=int,
               help="Use only M of the measured rows, chosen at random (default: all).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed for choosing the M rows.")
@@ -73,7 +79,8 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
               help="Fit partial sessions (running, aborted, failed) too; such a model is stored only with --name.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1),
               help="Processes for several files (default: one per core, at most one per file).")
-def identify(files, levels, v_min, v_max, method, measurements, seed, curves, thermal_term, as_json, save, name,
+def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, as_json, save,
+             name,
              store, force, partial, jobs):
     """Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um).
 
@@ -88,7 +95,7 @@ def identify(files, levels, v_min, v_max, method, measurements, seed, curves, th
         raise UserError("--name stores the model; it cannot go with --no-store")
     paths = list(files)
     options = IdentifyOptions(levels, v_min, v_max, method, measurements, seed, thermal_term, store, name, force,
-                              partial, curves)
+                              partial, solver=solver, curves=curves)
     targets = save_targets(save, paths)
     start = time.perf_counter()
     workers = default_workers(len(paths), jobs)

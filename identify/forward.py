@@ -1,0 +1,122 @@
+"""The fast forward model: a model's output for any input, from its Everett function.
+
+``u = mu0 + c_d v + 2 Phi - sum(mu)`` where ``Phi`` is the weight of the
+switched-up hysterons, a sum of Everett terms over the corners of the
+memory curve (:mod:`identify.everett`).  Two ways to use it:
+
+* :func:`predict` -- a whole input sequence at once: the Everett increments
+  of the sequence (``O(n)`` amortised) applied to the prefix table of the
+  density, ``O(n + L^2)`` time and memory.  :meth:`PreisachModel.predict`
+  uses it.
+* :class:`HysteresisState` -- one input at a time, ``O(1)`` amortised
+  Everett evaluations per step, with :meth:`~HysteresisState.peek` to ask
+  "what would the output be if the input went to ``v`` now?" without moving
+  the memory: what an inverse compensator searching for the input that
+  gives a wanted output needs.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .everett import everett, everett_increments, everett_table, prefix_sums
+from .grid import WALL_TOLERANCE
+from .memory import InitialState, MemoryCurve
+from .regressor import check_inputs, initial_curve
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .model import PreisachModel
+
+
+def predict(
+    model: "PreisachModel",
+    inputs: np.ndarray,
+    initial: InitialState = "negative",
+    history: np.ndarray | None = None,
+) -> np.ndarray:
+    """Output (um) of ``model`` for the input sequence ``inputs`` (V), shape ``(n,)``.
+
+    The memory starts in the ``initial`` saturation, then sees ``history``;
+    inputs beyond the grid range saturate.
+    """
+    v = check_inputs(inputs)
+    grid = model.grid
+    increments = everett_increments(grid, grid.coordinates(v), initial_curve(grid, initial, history))
+    phi = np.cumsum(increments @ prefix_sums(grid, model.density))
+    return 2.0 * phi - float(np.sum(model.density)) + model.mu0 + model.c_d * v
+
+
+def _phi_terms(a: list[float], b: list[float], prev: float) -> list[tuple[float, float, float]]:
+    """``(sign, x, y)`` of the Everett terms of corners ``(a, b)`` following a corner with ``b = prev``."""
+    terms = []
+    for ak, bk in zip(a, b):
+        terms.append((1.0, ak, bk))
+        terms.append((-1.0, ak, prev))
+        prev = bk
+    return terms
+
+
+class HysteresisState:
+    """A model and its memory, stepped one input at a time.
+
+    Parameters
+    ----------
+    model: the :class:`~identify.model.PreisachModel`.
+    initial, history: the memory before the first input (as for
+        :meth:`PreisachModel.predict`).
+    """
+
+    def __init__(
+        self,
+        model: "PreisachModel",
+        initial: InitialState = "negative",
+        history: np.ndarray | None = None,
+    ) -> None:
+        self.model = model
+        self._table = everett_table(model.grid, model.density).tolist()
+        self._total = float(np.sum(model.density))
+        self.curve: MemoryCurve = initial_curve(model.grid, initial, history)
+        a, b = self.curve.tail(0)
+        self._phi = self._sum(_phi_terms(a, b, 0.0))
+        self._v = model.grid.v_min + model.grid.step * self.curve.position
+
+    def _sum(self, terms: list[tuple[float, float, float]]) -> float:
+        return sum(s * everett(self._table, x, y) for s, x, y in terms)
+
+    def _moved(self, curve: MemoryCurve, x: float) -> float:
+        """``Phi`` after moving ``curve`` (which is changed) to coordinate ``x``."""
+        old_a, old_b = curve.tail(0)
+        k = curve.apply(x)
+        new_a, new_b = curve.tail(k)
+        prev = old_b[k - 1] if k else 0.0
+        return self._phi - self._sum(_phi_terms(old_a[k:], old_b[k:], prev)) + self._sum(
+            _phi_terms(new_a, new_b, prev)
+        )
+
+    def _output(self, phi: float, v: float) -> float:
+        m = self.model
+        return 2.0 * phi - self._total + m.mu0 + m.c_d * v
+
+    @property
+    def output(self) -> float:
+        """The output (um) at the current input."""
+        return self._output(self._phi, self._v)
+
+    def _coordinate(self, v: float) -> float:
+        """Grid coordinate of ``v`` (V), as :meth:`Grid.coordinates` but for one value."""
+        g = self.model.grid
+        x = min(max((float(v) - g.v_min) / g.step, 0.0), float(g.levels))
+        r = round(x)
+        return float(r) if abs(x - r) <= WALL_TOLERANCE else x
+
+    def peek(self, v: float) -> float:
+        """The output (um) if the input moved to ``v`` (V) now; the memory is not changed."""
+        return self._output(self._moved(self.curve.copy(), self._coordinate(v)), float(v))
+
+    def apply(self, v: float) -> float:
+        """Move the input to ``v`` (V); returns the new output (um)."""
+        self._phi = self._moved(self.curve, self._coordinate(v))
+        self._v = float(v)
+        return self.output
