@@ -102,8 +102,8 @@ def main() -> None:
                    "train_nrmse": normalised(rmse(train), data.outputs[even]),
                    **held_out(data, fitted.model_, odd)}
             rows_out.append(row)
-            print(f"L={levels:<3} {method:<10} held-out nrmse {row['nrmse']:.6f}  rmse {row['rmse']:.4g} {unit}  "
-                  f"max {row['max_abs']:.4g}  train nrmse {row['train_nrmse']:.6f}  fit {row['fit_s']:.2f} s  "
+            print(f"L={levels:<3} {method:<10} held-out nrmse {row['nrmse']:.6g}  rmse {row['rmse']:.6g} {unit}  "
+                  f"max {row['max_abs']:.4g}  train nrmse {row['train_nrmse']:.6g}  fit {row['fit_s']:.2f} s  "
                   f"build+fit {wall:.2f} s", file=log)
 
     all_points = []
@@ -132,8 +132,8 @@ def main() -> None:
           f"| fit s | build + fit s |")
     print("|---|---|---|---|---|---|---|---|")
     for r in rows_out:
-        print(f"| {r['levels']} | `{r['method']}` | {r['nrmse']:.6f} | {r['rmse']:.3g} | {r['max_abs']:.3g} "
-              f"| {r['train_nrmse']:.6f} | {r['fit_s']:.2f} | {r['build_fit_s']:.2f} |")
+        print(f"| {r['levels']} | `{r['method']}` | {r['nrmse']:.6g} | {r['rmse']:.6g} | {r['max_abs']:.3g} "
+              f"| {r['train_nrmse']:.6g} | {r['fit_s']:.2f} | {r['build_fit_s']:.2f} |")
     for a in all_points:
         print(f"\nAll {a['n']} measured points, L = {a['levels']}, `{a['method']}`: build + fit "
               f"{a['build_fit_s']:.1f} s (median of {len(a['runs'])}), fit alone {a['fit_s']:.1f} s")
