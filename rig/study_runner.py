@@ -10,34 +10,14 @@ slower, not faster.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import multiprocessing
-import os
 
 from tqdm import tqdm
 
 from identify.study import StudySetup, TrialResult, run_trials
 
-#: Environment of the worker processes: one BLAS thread each.
-WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
-
-
-@contextlib.contextmanager
-def _worker_environment():
-    """Set :data:`WORKER_ENV` (unless the user chose otherwise) while workers start."""
-    saved = {k: os.environ.get(k) for k in WORKER_ENV}
-    for k, v in WORKER_ENV.items():
-        os.environ.setdefault(k, v)
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
+from .parallel import worker_environment
 
 def _chunks(keys: list, workers: int) -> list[list]:
     size = max(1, min(8, math.ceil(len(keys) / (workers * 16))))
@@ -59,7 +39,7 @@ def run_study(setup: StudySetup, workers: int, progress: bool = True) -> list[Tr
     context = multiprocessing.get_context("spawn")
     with tqdm(total=len(keys), desc=f"study {setup.profile}", unit="run", dynamic_ncols=True,
               disable=None if progress else True) as bar:
-        with _worker_environment():
+        with worker_environment():
             pool = context.Pool(workers)
         try:
             for batch in pool.imap_unordered(_run_chunk, [(setup, c) for c in _chunks(keys, workers)]):

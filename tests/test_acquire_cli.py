@@ -218,3 +218,42 @@ def test_bad_requests_are_one_line_errors_and_touch_nothing(tmp_path, args, frag
     assert_one_line_error(run, *fragments)
     assert digest(done) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["done.h5"]
+
+
+def test_a_dwell_column_gives_every_point_its_own_dwell(tmp_path):
+    f = tmp_path / "check.csv"
+    v, dwell = [1.0, 4.0, 4.0, 2.0, 5.5, 0.5], [8.0, 15.0, 60.0, 8.0, 30.0, 15.0]
+    f.write_text("v_V,dwell_s\n" + "\n".join(f"{a},{b}" for a, b in zip(v, dwell)) + "\n")
+    run = rig_here("acquire", "--sequence", f, "--dwell", 20, "--out", tmp_path / "c.h5", "--json")
+    assert run.code == 0, run.err
+    s = read_session(tmp_path / "c.h5")
+    assert s.inputs.tolist() == v
+    np.testing.assert_allclose(s.samples["dwell_s"], dwell, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(np.diff(s.t_s), dwell[1:], rtol=0, atol=1e-9)
+    assert s.excitation.dwell["schedule_s"] == dwell and s.excitation.dwell["seconds"] == 20.0
+
+
+@pytest.mark.parametrize("text, extra, fragments", [
+    ("v_V,dwell_s\n1.0,5\n2.0,-1\n", [], ["line 3", "dwell_s", "negative"]),
+    ("v_V,dwell_s\n1.0,5\n2.0,x\n", [], ["line 3", "not a number"]),
+    ("v_V,dwell_s\n1.0,5\n2.0,7\n", ["--settle", 0.05], ["cannot be combined with --settle"]),
+])
+def test_bad_dwell_columns_are_one_line_errors(tmp_path, text, extra, fragments):
+    f = tmp_path / "bad.csv"
+    f.write_text(text)
+    run = rig_here("acquire", "--sequence", f, *extra, "--out", tmp_path / "x.h5")
+    assert_one_line_error(run, *fragments)
+    assert not (tmp_path / "x.h5").exists()
+
+
+def test_a_check_sequence_for_the_gap_diagnosis(tmp_path):
+    run = rig_here("acquire", "--sequence", "check", "--points", 40, "--seed", 5, "--out", tmp_path / "v.h5")
+    assert run.code == 0, run.err
+    s = read_session(tmp_path / "v.h5")
+    assert s.excitation.kind == "check" and s.n_samples == 40 and s.grid.levels == 30
+    dwell = s.samples["dwell_s"]
+    assert set(np.round(dwell, 6)) <= {8.0, 15.0, 30.0, 60.0} and len(set(np.round(dwell, 6))) > 1
+    assert s.excitation.dwell["schedule_s"] == list(dwell)
+    assert np.any(np.diff(s.inputs) == 0)  # repeated set-points
+    again = rig_here("acquire", "--sequence", "check", "--points", 40, "--seed", 5, "--out", tmp_path / "w.h5")
+    assert again.code == 0 and np.array_equal(read_session(tmp_path / "w.h5").inputs, s.inputs)

@@ -139,7 +139,7 @@ def test_bad_setpoint_files_are_named(tmp_path, text, match):
 
 
 def test_sequence_name_typos_and_misplaced_options():
-    with pytest.raises(DataFileError, match="expected damped, random or a CSV file"):
+    with pytest.raises(DataFileError, match="expected damped, random, check or a CSV file"):
         sequence_record("dampd", VoltageWindow(0.0, 6.0))
     with pytest.raises(DataFileError, match="--points"):
         sequence_record("damped", VoltageWindow(0.0, 6.0), points=10)

@@ -8,6 +8,7 @@ import pytest
 
 from drivers import SensorError, default_config, open_rig
 from drivers.clock import VirtualClock
+from identify import Grid
 from rig.acquisition import (
     AcquisitionError,
     AcquisitionPlan,
@@ -261,3 +262,32 @@ def test_without_a_pause_switch_ctrl_c_aborts_at_once_and_keeps_the_samples(tmp_
         assert rig.device.applied_voltage == 0.0
     s = read_session(path)
     assert outcome.status is Status.ABORTED and s.status is Status.ABORTED and s.n_samples == 10
+
+
+def test_resume_keeps_a_per_point_dwell_schedule(tmp_path):
+    """A check run's several dwells survive an interruption: the resumed points wait as planned."""
+    grid = Grid(LEVELS, 0.0, 6.0)
+    v = np.array([1.0, 3.0, 2.0, 2.0, 5.0, 0.5, 4.0])
+    dwell = (8.0, 30.0, 15.0, 60.0, 8.0, 30.0, 15.0)
+    settings = DwellSettings(FixedDwell(20.0), Transit(0.0), 2, dwell)
+    record = make_record(ExcitationRecord(kind="check", inputs=v, levels=grid.levels, v_min=grid.v_min,
+                                          v_max=grid.v_max), settings)
+    ref = tmp_path / "ref.h5"
+    with open_rig(config()) as rig:
+        acquire(rig, record, ref)
+    path = tmp_path / "cut.h5"
+    with open_rig(config()) as rig:
+        def inject(result):
+            if result.index == 2:
+                rig.device.faults.nan_readings = 100
+
+        with pytest.raises(SensorError):
+            acquire(rig, record, path, hooks=Hooks(on_sample=inject))
+    with open_rig(config()) as rig:
+        resume(rig, path)
+    a, b = read_session(ref), read_session(path)
+    np.testing.assert_allclose(b.samples["dwell_s"], dwell, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(a.t_s, b.t_s)
+    np.testing.assert_allclose(a.outputs, b.outputs, rtol=0, atol=1e-12)
+    with pytest.raises(AcquisitionError, match="3 per-point dwell times for a plan of 7 points"):
+        make_record(record, DwellSettings(FixedDwell(20.0), schedule=(1.0, 2.0, 3.0)))

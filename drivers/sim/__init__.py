@@ -4,6 +4,8 @@
 * :mod:`~drivers.sim.transition` -- the phase-transition Preisach density;
 * :mod:`~drivers.sim.device` -- :class:`SimVO2`, the physics and its state;
 * :mod:`~drivers.sim.effects` -- the hook for extra physical effects;
+* :mod:`~drivers.sim.builtin_effects` -- the unmodelled effects (thermal lag,
+  drifts, Joule power, creep, sensor nonlinearity);
 * :mod:`~drivers.sim.faults` -- faults to inject in tests;
 * :mod:`~drivers.sim.backend` -- the in-process ``sim`` driver;
 * :mod:`~drivers.sim.modbus_server`, :mod:`~drivers.sim.serial_server`,
@@ -11,6 +13,7 @@
   line-protocol server (``rig serve-sim``).
 """
 
+from . import builtin_effects  # noqa: F401  (registers the built-in effects)
 from .device import DeviceRefused, SimState, SimVO2
 from .effects import EFFECTS, Effect, Moment, register_effect
 from .faults import FaultPlan

@@ -93,6 +93,8 @@ class SimVO2:
         #: Cell weights of the phase transition (um), shape ``(n_cells,)``.
         self.density = transition_density(self.grid, self.params)
         self.effects: list[Effect] = list(effects) if effects is not None else make_effects(self.params.effects)
+        for e in self.effects:
+            e.bind(self.params)
         self.faults = faults if faults is not None else FaultPlan()
         #: Every accepted set-point as ``(t_s, volts)``, oldest first.
         self.setpoints: deque[tuple[float, float]] = deque(maxlen=setpoint_log_size)
@@ -108,6 +110,7 @@ class SimVO2:
             self._t = self.clock.now()
             self._v = 0.0
             self._rise = 0.0
+            self._beam_rise = 0.0
             self._target = 0.0
             self._settled = True
             self._v_eq = 0.0
@@ -204,7 +207,8 @@ class SimVO2:
 
     # ------------------------------------------------------------ physics
     def _moment(self) -> Moment:
-        return Moment(self._t, self._v, self._rise, self.params.ambient_C + self._rise, self._x_in)
+        rise = self._beam_rise
+        return Moment(self._t, self._v, rise, self.params.ambient_C + rise, self._x_in)
 
     def _advance(self, t: float) -> None:
         """Evolve the temperature from the last event to ``t`` and update the memory curve."""
@@ -238,7 +242,7 @@ class SimVO2:
     def _update_memory(self) -> None:
         rise = self._rise
         if self.effects:
-            m = self._moment()
+            m = Moment(self._t, self._v, rise, self.params.ambient_C + rise, self._x_in)
             for e in self.effects:
                 rise = e.temperature_rise(rise, m)
         # Settled and untouched: the equivalent voltage is the set-point itself, exactly.
@@ -249,7 +253,7 @@ class SimVO2:
             m = Moment(self._t, self._v, rise, self.params.ambient_C + rise)
             for e in self.effects:
                 x_in = e.preisach_input(x_in, m)
-        self._v_eq, self._x_in = v_eq, x_in
+        self._v_eq, self._x_in, self._beam_rise = v_eq, x_in, rise
         self._states.apply(float(self.grid.coordinates(x_in)))
 
     def _deflection(self) -> float:

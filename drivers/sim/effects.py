@@ -11,13 +11,15 @@ previous one, and every stage has a hook::
         --[psd]--> psd' --noise, rails--> reading
 
 plus :meth:`Effect.on_setpoint` when a new voltage is applied (reversal
-detection) and :meth:`Effect.state` for inspection.  Every hook defaults to
+detection), :meth:`Effect.bind` once with the device's parameters, and
+:meth:`Effect.state` for inspection.  Every hook defaults to
 "no change", so an effect overrides only the stages it acts on.  An effect
 is off unless its name appears in ``[sim.effects]`` with a non-zero
 strength.
 
-To add one (the effects planned next: ``thermal_lag``, ``baseline_drift``,
-``ambient_drift``, ``joule_power``, ``creep``, ``sensor_nonlinearity``)::
+The built-in effects (``thermal_lag``, ``baseline_drift``, ``ambient_drift``,
+``joule_power``, ``creep``, ``sensor_nonlinearity``) are in
+:mod:`drivers.sim.builtin_effects`.  To add one::
 
     @register_effect
     class JoulePower(Effect):
@@ -45,7 +47,9 @@ class Moment:
     """The device's state at one instant, as the hooks see it.
 
     ``t_s`` on the device's clock (s); ``voltage_V`` applied now;
-    ``rise_K`` temperature rise above ambient after the thermal lag;
+    ``rise_K`` temperature rise above ambient after the thermal lag (for
+    the ``preisach_input``, ``deflection`` and ``psd`` stages: after the
+    ``temperature_rise`` hooks too, i.e. the beam's rise);
     ``temperature_C``; ``preisach_input_V`` the input of the memory curve
     (after the ``preisach_input`` hooks, once known, else ``nan``).
     """
@@ -72,6 +76,13 @@ class Effect:
         for key, default in self.parameters.items():
             setattr(self, key, float(params.get(key, default)))
         self.reset()
+
+    def bind(self, params: Any) -> None:
+        """The device's :class:`~drivers.sim.params.SimParams`, given once when the device is built.
+
+        For effects that need the device's own constants (the thermal
+        resistance to turn a voltage into a temperature rise, ...).
+        """
 
     def reset(self) -> None:
         """Back to the power-on state."""

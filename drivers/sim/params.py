@@ -74,7 +74,7 @@ class SimParams:
     )
     seed: int = setting("seed of the PSD noise", default=0, minimum=0)
     effects: dict[str, Any] = setting(
-        "extra physical effects, name = strength or a table (none are built in yet)",
+        "extra physical effects, name = strength or a table (see drivers/sim/builtin_effects.py)",
         default_factory=dict,
     )
 

@@ -22,7 +22,7 @@ from .errors import AcquisitionError
 from .interrupt import Aborted, PauseInfo, PauseSwitch
 from .plan import AcquisitionPlan, make_record
 from .runner import Hooks, RunOutcome, acquire, resume
-from .sequence import sequence_record
+from .sequence import sequence_dwells, sequence_record
 from .summary import summarise, time_budget
 
 __all__ = [
@@ -44,6 +44,7 @@ __all__ = [
     "acquire",
     "make_record",
     "resume",
+    "sequence_dwells",
     "sequence_record",
     "summarise",
     "time_budget",

@@ -219,19 +219,39 @@ class DwellSettings:
 
     ``dwell`` waits at every point that is measured or a reversal (and at
     negative saturation before the run); ``transit`` at every other point;
-    ``readings`` readings are averaged per measurement.
+    ``readings`` readings are averaged per measurement.  ``schedule``
+    (seconds, one per point of the plan) replaces a fixed ``dwell`` point by
+    point -- a check run's several dwell times; the saturation before the
+    run still waits ``dwell``.
     """
 
     dwell: DwellPolicy
     transit: Transit = Transit(0.0)
     readings: int = 4
+    schedule: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.readings, bool) or not isinstance(self.readings, int) or self.readings < 1:
             raise AcquisitionError(f"readings per measurement must be an integer >= 1, got {self.readings}")
+        if self.schedule is not None:
+            if not isinstance(self.dwell, FixedDwell):
+                raise AcquisitionError("per-point dwell times are fixed waits; they cannot be combined with --settle")
+            values = tuple(float(x) for x in self.schedule)
+            bad = [k for k, x in enumerate(values) if not (math.isfinite(x) and x >= 0)]
+            if bad:
+                raise AcquisitionError(f"dwell of point {bad[0]} must be a finite number of seconds >= 0, "
+                                       f"got {values[bad[0]]}")
+            object.__setattr__(self, "schedule", values)
+
+    def at(self, k: int) -> DwellPolicy:
+        """The dwell policy of point ``k`` (the schedule's fixed wait, when there is one)."""
+        return self.dwell if self.schedule is None else FixedDwell(self.schedule[k])
 
     def describe(self) -> dict[str, Any]:
-        return {**self.dwell.describe(), "transit_s": self.transit.seconds, "readings": self.readings}
+        out = {**self.dwell.describe(), "transit_s": self.transit.seconds, "readings": self.readings}
+        if self.schedule is not None:
+            out["schedule_s"] = list(self.schedule)
+        return out
 
     @classmethod
     def from_description(cls, d: dict[str, Any]) -> "DwellSettings":
@@ -241,7 +261,9 @@ class DwellSettings:
             readings = int(d.get("readings", 4))
             transit = Transit(float(d.get("transit_s", 0.0)))
             if policy == "fixed":
-                return cls(FixedDwell(float(d["seconds"])), transit, readings)
+                schedule = d.get("schedule_s")
+                return cls(FixedDwell(float(d["seconds"])), transit, readings,
+                           None if schedule is None else tuple(float(x) for x in schedule))
             if policy == "settle" and d.get("condition") == "rate_below":
                 cond = RateBelow(float(d["rate_um_per_s"]), int(d.get("polls", 2)))
                 return cls(SettleDwell(cond, float(d["max_s"]), float(d["poll_s"]), readings), transit, readings)

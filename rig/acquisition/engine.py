@@ -142,7 +142,8 @@ class Sequencer:
         self.heater.set_voltage(volts)
         self._setpoint = volts
         s = self.settings
-        return self._wait(s.dwell if settle else s.transit, k, "dwell" if phase == "run" else phase)
+        policy = (s.dwell if phase == "saturation" else s.at(k)) if settle else s.transit
+        return self._wait(policy, k, "dwell" if phase == "run" else phase)
 
     # ------------------------------------------------------------ phases
     def saturate(self) -> tuple[DwellOutcome, float]:

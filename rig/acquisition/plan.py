@@ -64,6 +64,13 @@ class AcquisitionPlan:
     def n_points(self) -> int:
         return self.record.n_points
 
+    def check_settings(self, settings: DwellSettings) -> None:
+        """Refuse per-point dwell times that do not match the plan point for point."""
+        if settings.schedule is not None and len(settings.schedule) != self.n_points:
+            raise AcquisitionError(
+                f"{len(settings.schedule)} per-point dwell times for a plan of {self.n_points} points"
+            )
+
     def check_window(self, window: VoltageWindow) -> None:
         """Refuse (before anything is applied) a plan with a set-point the heater does not accept."""
         bad = np.flatnonzero((self.inputs < window.min_V) | (self.inputs > window.max_V))
@@ -87,6 +94,8 @@ def make_record(
     n = excitation.n_points
     if n == 0:
         raise AcquisitionError("the excitation has no points")
+    if settings.schedule is not None and len(settings.schedule) != n:
+        raise AcquisitionError(f"{len(settings.schedule)} per-point dwell times for a plan of {n} points")
     rev = reversal_points(excitation.inputs)
     mask = compressive_plan(n, measure, seed, rev)
     extra = dict(excitation.extra)

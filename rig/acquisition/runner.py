@@ -113,6 +113,7 @@ def acquire(
     plan = AcquisitionPlan.from_record(record)
     plan.check_window(rig.heater.window)
     settings = settings if settings is not None else DwellSettings.from_description(record.dwell)
+    plan.check_settings(settings)
     hooks = hooks or Hooks()
     writer = SessionWriter.create(
         path, record, rig_config=rig.config.to_dict(), driver=rig.description,
@@ -154,6 +155,7 @@ def resume(
     plan = AcquisitionPlan.from_record(session.excitation)
     plan.check_window(rig.heater.window)
     settings = DwellSettings.from_description(session.excitation.dwell)
+    plan.check_settings(settings)
     hooks = hooks or Hooks()
     where = rig.description.get("endpoint") or rig.description.get("driver")
     writer = SessionWriter.reopen(

@@ -4,9 +4,14 @@
   point unless told otherwise (:meth:`identify.Excitation.damped`);
 * ``random`` -- a random validation input of ``points`` values on the grid
   (:meth:`identify.Excitation.random`, seeded);
+* ``check`` -- a check run for ``rig diagnose``: ``points`` set-points with
+  random reversals, several step sizes and per-point dwells, and repeated
+  set-points (:func:`identify.diagnosis.check_design`, seeded);
 * ``FILE.csv`` -- set-points from a CSV file with a header line naming a
   ``v_V`` column (other columns are ignored, so a recorded trace
-  ``t_s,v_V,deflection_um`` replays its inputs).  The grid is recorded
+  ``t_s,v_V,deflection_um`` replays its inputs).  An optional ``dwell_s``
+  column gives every point its own fixed dwell (a check run's several
+  dwell times, see :func:`sequence_dwells`).  The grid is recorded
   only when ``levels`` is given (range: the options, else the data's); a
   file holding exactly the damped oscillation of that grid is recorded as
   ``damped``, as ``rig import`` does.
@@ -23,6 +28,7 @@ import numpy as np
 
 from drivers.protocols import VoltageWindow
 from identify import Excitation, Grid
+from identify.diagnosis.design import DWELLS_S, CheckDesign, check_design
 from sessions import DataFileError, ExcitationRecord
 from sessions.convert import excitation_of_trace, sha256_of
 from sessions.csvtrace import Trace, read_csv_rows
@@ -31,12 +37,20 @@ from sessions.csvtrace import Trace, read_csv_rows
 DEFAULT_LEVELS = 30
 #: Length of a random validation input when not given.
 DEFAULT_RANDOM_POINTS = 200
+#: Length of a check run for the gap diagnosis when not given.
+DEFAULT_CHECK_POINTS = 200
 #: The column of a set-point file that holds the heater voltages.
 SETPOINT_COLUMN = "v_V"
+#: The optional column of a set-point file that holds each point's dwell time (s).
+DWELL_COLUMN = "dwell_s"
 
 
-def read_setpoints(path: str | Path) -> np.ndarray:
-    """The ``v_V`` column (V) of a CSV file, shape ``(n,)``; :class:`DataFileError` naming the line otherwise."""
+def read_setpoint_file(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
+    """The ``v_V`` column (V) of a CSV set-point file and, when present, its ``dwell_s`` column (s).
+
+    Both have shape ``(n,)``; a dwell must be a finite number of seconds
+    >= 0.  Problems raise :class:`DataFileError` naming the line.
+    """
     path = Path(path)
     rows = read_csv_rows(path)
     if not rows:
@@ -47,24 +61,55 @@ def read_setpoints(path: str | Path) -> np.ndarray:
             f"{path}: line 1: no {SETPOINT_COLUMN} column in the header {','.join(header)} "
             f"(a set-point file needs a header line naming a {SETPOINT_COLUMN} column)"
         )
-    col = header.index(SETPOINT_COLUMN)
-    values = []
+    columns = [(SETPOINT_COLUMN, header.index(SETPOINT_COLUMN))]
+    if DWELL_COLUMN in header:
+        columns.append((DWELL_COLUMN, header.index(DWELL_COLUMN)))
+    values: dict[str, list[float]] = {name: [] for name, _ in columns}
     for lineno, row in enumerate(rows[1:], start=2):
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(header):
             raise DataFileError(f"{path}: line {lineno}: expected {len(header)} values, got {len(row)}")
-        cell = row[col].strip()
-        try:
-            x = float(cell)
-        except ValueError:
-            raise DataFileError(f"{path}: line {lineno}: {SETPOINT_COLUMN} value {cell!r} is not a number") from None
-        if not np.isfinite(x):
-            raise DataFileError(f"{path}: line {lineno}: {SETPOINT_COLUMN} value {cell!r} is not finite")
-        values.append(x)
-    if not values:
+        for name, col in columns:
+            cell = row[col].strip()
+            try:
+                x = float(cell)
+            except ValueError:
+                raise DataFileError(f"{path}: line {lineno}: {name} value {cell!r} is not a number") from None
+            if not np.isfinite(x) or (name == DWELL_COLUMN and x < 0):
+                what = "not finite" if not np.isfinite(x) else "negative"
+                raise DataFileError(f"{path}: line {lineno}: {name} value {cell!r} is {what}")
+            values[name].append(x)
+    if not values[SETPOINT_COLUMN]:
         raise DataFileError(f"{path}: no set-points after the header")
-    return np.asarray(values, dtype=float)
+    dwell = values.get(DWELL_COLUMN)
+    return np.asarray(values[SETPOINT_COLUMN], dtype=float), None if dwell is None else np.asarray(dwell, dtype=float)
+
+
+def read_setpoints(path: str | Path) -> np.ndarray:
+    """The ``v_V`` column (V) of a CSV file, shape ``(n,)``; :class:`DataFileError` naming the line otherwise."""
+    return read_setpoint_file(path)[0]
+
+
+def sequence_dwells(
+    sequence: str,
+    window: VoltageWindow | None = None,
+    *,
+    levels: int | None = None,
+    v_min: float | None = None,
+    v_max: float | None = None,
+    points: int | None = None,
+    seed: int | None = 0,
+) -> np.ndarray | None:
+    """Per-point dwell times (s): a check sequence's (same arguments as :func:`sequence_record`), or a
+    set-point file's ``dwell_s`` column; None for the other sequences and files without one."""
+    if sequence in ("damped", "random"):
+        return None
+    if sequence == "check":
+        if window is None:
+            raise ValueError("a check sequence needs the heater's window")
+        return _check_design(window, levels, v_min, v_max, points, seed)[1].dwell_s
+    return read_setpoint_file(sequence)[1]
 
 
 def default_grid(window: VoltageWindow, levels: int | None, v_min: float | None, v_max: float | None) -> Grid:
@@ -72,6 +117,12 @@ def default_grid(window: VoltageWindow, levels: int | None, v_min: float | None,
     lo = max(window.min_V, 0.0) if v_min is None else v_min
     hi = window.max_V if v_max is None else v_max
     return Grid(DEFAULT_LEVELS if levels is None else levels, lo, hi)
+
+
+def _check_design(window: VoltageWindow, levels, v_min, v_max, points, seed) -> tuple[Grid, CheckDesign]:
+    grid = default_grid(window, levels, v_min, v_max)
+    n = DEFAULT_CHECK_POINTS if points is None else points
+    return grid, check_design(grid.v_min, grid.v_max, n, seed=seed)
 
 
 def sequence_record(
@@ -86,16 +137,21 @@ def sequence_record(
     thermal_term: bool = True,
 ) -> ExcitationRecord:
     """The excitation named by ``sequence`` (measure plan and dwell not yet set)."""
-    if points is not None and sequence != "random":
-        raise DataFileError("--points sets the length of a random sequence: use it with --sequence random")
+    if points is not None and sequence not in ("random", "check"):
+        raise DataFileError("--points sets the length of a random or check sequence: use it with --sequence "
+                            "random or check")
     if sequence == "damped":
         return ExcitationRecord.from_excitation(Excitation.damped(default_grid(window, levels, v_min, v_max), thermal_term))
     if sequence == "random":
         n = DEFAULT_RANDOM_POINTS if points is None else points
         return ExcitationRecord.from_excitation(Excitation.random(default_grid(window, levels, v_min, v_max), n, seed))
+    if sequence == "check":
+        grid, design = _check_design(window, levels, v_min, v_max, points, seed)
+        return ExcitationRecord(kind="check", inputs=design.inputs, levels=grid.levels, v_min=grid.v_min,
+                                v_max=grid.v_max, seed=seed, extra={"dwell_choices_s": list(DWELLS_S)})
     path = Path(sequence)
     if path.suffix.lower() != ".csv" and not path.exists():
-        raise DataFileError(f"--sequence {sequence!r}: expected damped, random or a CSV file of set-points")
+        raise DataFileError(f"--sequence {sequence!r}: expected damped, random, check or a CSV file of set-points")
     v = read_setpoints(path)
     zeros = np.zeros_like(v)
     record = excitation_of_trace(Trace(zeros, v, zeros), levels, v_min, v_max,

@@ -3,6 +3,7 @@
 from .acquire import acquire
 from .bench import bench
 from .demo import demo
+from .diagnose import diagnose
 from .export import export
 from .identify import identify
 from .import_ import import_
@@ -13,4 +14,5 @@ from .serve_sim import serve_sim
 from .study import study
 from .validate import validate
 
-COMMANDS = [demo, identify, predict, import_, export, selftest, serve_sim, acquire, validate, report, study, bench]
+COMMANDS = [demo, identify, predict, import_, export, selftest, serve_sim, acquire, validate, report, study, bench,
+            diagnose]

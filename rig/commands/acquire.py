@@ -25,6 +25,7 @@ from rig.acquisition import (
     acquire as run_acquisition,
     make_record,
     resume as resume_acquisition,
+    sequence_dwells,
     sequence_record,
     summarise,
 )
@@ -43,9 +44,10 @@ PLAN_OPTIONS = ("sequence", "levels", "v_min", "v_max", "thermal_term", "points"
                 "settle", "poll", "transit", "readings", "measure", "out", "operator", "notes")
 
 
-def _settings(dwell: float, settle: float | None, poll: float, transit: float, readings: int) -> DwellSettings:
+def _settings(dwell: float, settle: float | None, poll: float, transit: float, readings: int,
+              schedule=None) -> DwellSettings:
     policy = FixedDwell(dwell) if settle is None else SettleDwell(RateBelow(settle), dwell, poll, readings)
-    return DwellSettings(policy, Transit(transit), readings)
+    return DwellSettings(policy, Transit(transit), readings, None if schedule is None else tuple(schedule))
 
 
 def _config_for_resume(config_path: Path | None, session: Session) -> RigConfig:
@@ -83,17 +85,20 @@ def _report(summary: dict, as_json: bool) -> None:
               help="rig.toml (default: the built-in simulated device on a virtual clock; "
                    "with --resume: the configuration stored in the session).")
 @click.option("--sequence", default="damped", show_default=True,
-              help="damped (the damped oscillation), random (a validation input) or FILE.csv (a v_V column).")
+              help="damped (the damped oscillation), random (a validation input), check (a check run for "
+                   "rig diagnose, with its own dwells) or FILE.csv (a v_V column; an optional dwell_s column "
+                   "gives each point its own dwell).")
 @click.option("--levels", "-L", type=int, help="Levels L of the grid [30; a FILE: none unless given].")
 @click.option("--v-min", type=float, help="Lower end of the grid (V) [0, or a FILE's minimum].")
 @click.option("--v-max", type=float, help="Upper end of the grid (V) [the heater's maximum, or a FILE's maximum].")
 @click.option("--thermal-term/--no-thermal-term", default=True, show_default=True,
               help="damped: end with the thermal-term point.")
-@click.option("--points", type=int, help="random: number of points [200].")
+@click.option("--points", type=int, help="random, check: number of points [200].")
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seed of the random sequence and of the choice of measured points.")
 @click.option("--dwell", type=float, default=20.0, show_default=True,
-              help="Wait at each measured point and reversal point (s); with --settle, the longest wait.")
+              help="Wait at each measured point and reversal point (s); with --settle, the longest wait; "
+                   "a FILE's dwell_s column overrides it point by point.")
 @click.option("--settle", type=float, metavar="RATE",
               help="Wait until the deflection changes by less than RATE um/s (at most --dwell s).")
 @click.option("--poll", type=float, default=0.5, show_default=True, help="With --settle: seconds between checks.")
@@ -135,7 +140,8 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
             raise DataFileError(f"{out}: already exists; a session is never overwritten")
         cfg = load_config(config_path) if config_path else default_config()
         window = cfg.heater.limits().window
-        settings = _settings(dwell, settle, poll, transit, readings)
+        schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points, seed=seed)
+        settings = _settings(dwell, settle, poll, transit, readings, schedule)
         record = make_record(
             sequence_record(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points,
                             seed=seed, thermal_term=thermal_term),

@@ -1,0 +1,415 @@
+"""The diagnosis: base fit, held-out residuals, candidates, scores, verdict -- arrays in, a result out.
+
+:func:`diagnose` fits equation (22) on the identification runs, predicts
+the check runs, and asks of the check residual (``model - measured``):
+
+* **where** -- the residual binned by input, branch, time since reversal,
+  last step, predicted output and session time (:mod:`~identify.diagnosis.binning`);
+* **which** -- every candidate of the library fitted jointly with the base
+  model and scored on held-out check blocks (:mod:`~identify.diagnosis.scoring`),
+  ranked by the held-out improvement with a block-bootstrap interval, and
+  the verdict (:mod:`~identify.diagnosis.verdict`);
+* **how far** -- baseline held-out RMSE, RMSE with each candidate, shrink
+  ``1 - RMSE_with / RMSE_base``, the noise floor (:mod:`~identify.diagnosis.noise`)
+  and the share of the excess gap closed.
+
+Problems with the data that do not prevent a diagnosis (check points
+outside the identification range, a check run too short for a candidate,
+runs on different grids) are listed in :attr:`Diagnosis.warnings` or
+:attr:`Diagnosis.not_assessed`; the rest raise :class:`IdentifyError`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import IdentifyError
+from ..grid import Grid
+from .base import BaseFit, fit_base, uncertain_directions
+from .binning import Binning, bin_residuals
+from .candidates import Candidate, Columns, Context, library
+from .noise import NoiseEstimate, estimate_noise, floor_per_point
+from .runs import Run
+from .scoring import Blocks, Design, bootstrap_mse, cross_validate, make_blocks, onehot
+from .verdict import Evidence, Verdict
+
+#: Fraction of the scored range within which an input counts as inside the grid.
+RANGE_TOLERANCE = 1e-9
+#: A per-run coefficient needs this many blocks of its run to be cross-validated.
+MIN_BLOCKS_PER_RUN = 3
+#: Bounded effects whose largest plausible signature stays below this fraction of the floor are invisible.
+VISIBLE = 0.5
+#: A column whose effective part is below this fraction of its raw size counts as absorbed.
+ABSORBED = 1e-6
+#: Confidence of the reported intervals.
+CONFIDENCE = 0.95
+#: How many of the base fit's noise amplifications are reported.
+MAX_REPORTED_AMPLIFICATION = 5
+
+
+@dataclass(frozen=True)
+class DiagnosisSettings:
+    """``method`` (and ``method_settings``) of the base fit; ``effects``: the candidate library
+    (None: all); ``n_boot`` bootstrap resamples, ``seed`` of the bootstrap."""
+
+    method: str = "ls"
+    method_settings: dict[str, Any] | None = None
+    thermal_term: bool = True
+    effects: tuple[str, ...] | None = None
+    n_boot: int = 2000
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class CandidateScore:
+    """A candidate's held-out score.  ``rmse_um`` held-out RMSE with the candidate; ``shrink``
+    ``1 - rmse / baseline``; ``ci`` its interval (:data:`CONFIDENCE`, for the fixed check design,
+    see :mod:`~identify.diagnosis.verdict`) and ``ci_block_bootstrap`` the block bootstrap's;
+    ``gain_um2`` the MSE reduction and ``z`` over its standard error; ``params`` the fit on all check
+    data in physical terms; ``visible`` whether the input design can show the effect at all;
+    ``share_closed`` of the excess over the noise floor (None when unknown)."""
+
+    effect: str
+    rmse_um: float
+    shrink: float
+    ci: tuple[float, float]
+    gain_um2: float
+    z: float
+    params: dict[str, Any]
+    visible: bool
+    note: str
+    share_closed: float | None
+    ci_block_bootstrap: tuple[float, float] = (float("nan"), float("nan"))
+
+
+@dataclass(frozen=True, eq=False)
+class CheckPoints:
+    """The scored check points, ``(m,)`` each: ``run`` (index into the check runs), ``index`` (point
+    of that run), ``measured`` and ``predicted`` (um), ``residual`` (model - measured, um),
+    ``floor`` (um, None when unknown), ``features`` for the bins."""
+
+    run: np.ndarray
+    index: np.ndarray
+    measured: np.ndarray
+    predicted: np.ndarray
+    residual: np.ndarray
+    floor: np.ndarray | None
+    features: dict[str, np.ndarray]
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """Everything :func:`diagnose` found (see the module doc)."""
+
+    grid: Grid
+    method: str
+    base: BaseFit
+    fit_runs: tuple[str, ...]
+    check_runs: tuple[str, ...]
+    baseline_rmse_um: float
+    fit_only_rmse_um: float
+    amplification: tuple[float, ...]
+    recalibrated: int
+    baseline_ci: tuple[float, float]
+    noise: NoiseEstimate | None
+    noise_floor_um: float | None
+    measurement_noise_um: float | None
+    where: list[Binning]
+    candidates: list[CandidateScore]
+    not_assessed: list[tuple[str, str]]
+    verdict: Verdict
+    points: CheckPoints
+    residual_after: dict[str, np.ndarray]
+    where_after: list[Binning] | None
+    warnings: list[str] = field(default_factory=list)
+    evidence: Evidence | None = None
+
+    @property
+    def chosen(self) -> str | None:
+        """The effect whose corrected residual the report shows: the named one, else the best contender."""
+        if self.verdict.effect is not None:
+            return self.verdict.effect
+        return self.verdict.contenders[0] if self.verdict.contenders else None
+
+    def score(self, effect: str) -> CandidateScore | None:
+        return next((c for c in self.candidates if c.effect == effect), None)
+
+    def verdict_without(self, effects: list[str] | tuple[str, ...]) -> Verdict:
+        """The verdict a library without ``effects`` would have reached (the same held-out scores)."""
+        assert self.evidence is not None
+        return self.evidence.decide(exclude=tuple(effects))
+
+
+# ---------------------------------------------------------------- helpers
+def _scored_rows(grid: Grid, run: Run, warnings: list[str]) -> np.ndarray:
+    rows = run.rows
+    tol = RANGE_TOLERANCE * (grid.v_max - grid.v_min)
+    v = run.inputs[rows]
+    inside = (v >= grid.v_min - tol) & (v <= grid.v_max + tol)
+    if not inside.all():
+        out = int((~inside).sum())
+        warnings.append(
+            f"{run.name}: {out} of {rows.size} measured points lie outside the identification range "
+            f"[{grid.v_min:g}, {grid.v_max:g}] V (from {v.min():g} to {v.max():g} V); they are not scored"
+        )
+    return rows[inside]
+
+
+def _features(run: Run, rows: np.ndarray, predicted: np.ndarray) -> dict[str, np.ndarray]:
+    h = run.history
+    return {
+        "input_V": run.inputs[rows],
+        "branch": h.branch[rows].astype(float),
+        "time_since_reversal_s": h.since_reversal_s[rows],
+        "last_step_V": h.last_step_V[rows],
+        "predicted_um": predicted[rows],
+        "session_time_s": run.t_s[rows],
+    }
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x)))) if x.size else float("nan")
+
+
+@dataclass(frozen=True, eq=False)
+class _Scored:
+    """The check data in the stacked order: the runs used, their scored rows, regressor rows, carry-over."""
+
+    runs: tuple[Run, ...]
+    rows: tuple[np.ndarray, ...]
+    carry: np.ndarray
+    blocks: Blocks
+
+
+def _effective(ctx: Context, scored: _Scored, cols: Columns) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The joint-fit columns of one setting.
+
+    Returns ``E = C_check - carry C_fit`` ``(m, k)`` at the scored check
+    points (the effect minus what the base fit absorbed of it), ``A = (I - H)
+    C_fit`` ``(m_fit, k)`` at the identification points (what the base fit
+    could not absorb), and the raw columns (check then fit points).
+    """
+    n_fit = len(ctx.base.fit_runs)
+    c_fit = np.vstack([cols.values[i][run.rows] for i, run in enumerate(ctx.base.fit_runs)])
+    c_check = np.vstack([cols.values[n_fit + i][rows] for i, rows in enumerate(scored.rows)])
+    return c_check - scored.carry @ c_fit, ctx.base.unabsorbed(c_fit), np.vstack([c_check, c_fit])
+
+
+def _with_reference(e: np.ndarray, a: np.ndarray, cols: Columns, recal: np.ndarray) -> Design:
+    """A candidate's design with the reference's re-estimated directions appended (no fit-run part)."""
+    k, r = cols.k, recal.shape[1]
+    rough = None
+    if cols.roughness is not None:
+        rough = np.zeros((k + r, k + r))
+        rough[:k, :k] = cols.roughness
+    return Design(np.hstack([e, recal]), np.hstack([a, np.zeros((a.shape[0], r))]), rough, cols.smoothing,
+                  np.concatenate([np.asarray(cols.nonneg, bool), np.zeros(r, bool)]))
+
+
+def _assessable(cand: Candidate, cols: Columns, scored: _Scored, n_fit: int) -> str | None:
+    """Why ``cand`` cannot be assessed on these check runs, or None."""
+    for j, r in enumerate(cols.run_of):
+        i = r - n_fit
+        if r < 0 or i < 0:
+            continue
+        per_run = sum(1 for x in cols.run_of if x == r)
+        nb, m = scored.blocks.per_run(i), scored.rows[i].size
+        if nb < MIN_BLOCKS_PER_RUN or m < 3 * per_run:
+            return (f"check run {scored.runs[i].name} has only {m} scored points; its per-run "
+                    f"{cand.name} terms need at least {max(MIN_BLOCKS_PER_RUN * 5, 3 * per_run)}")
+    return None
+
+
+def _visible(cand: Candidate, designs: list[np.ndarray], raws: list[np.ndarray], cols: Columns,
+             floor_rms: float | None) -> tuple[bool, str]:
+    """Whether the input design can show ``cand`` at all, and a note when it cannot."""
+    bounds = cand.bounds()
+    traced = [
+        (label, _rms(e[:, j]))
+        for e, raw in zip(designs, raws)
+        for j, label in enumerate(cols.labels)
+        if _rms(e[:, j]) > ABSORBED * max(_rms(raw[:, j]), 1e-300)
+    ]
+    if not traced:
+        return False, ("leaves no trace on the check points with this input design "
+                       "(absorbed by the base model, or not excited)")
+    if floor_rms is None or any(label not in bounds for label, _ in traced):
+        return True, ""
+    largest = max(size * bounds[label] for label, size in traced)
+    if largest < VISIBLE * floor_rms:
+        return False, (f"cannot be seen with this input design: at its largest plausible size it would "
+                       f"change the check outputs by {largest:.2g} um rms, under half the noise floor")
+    return True, ""
+
+
+# ---------------------------------------------------------------- the diagnosis
+def diagnose(
+    fit_runs: list[Run] | tuple[Run, ...],
+    check_runs: list[Run] | tuple[Run, ...],
+    grid: Grid,
+    settings: DiagnosisSettings | None = None,
+    candidates: list[Candidate] | None = None,
+) -> Diagnosis:
+    """Diagnose the gap between equation (22) fitted on ``fit_runs`` and the ``check_runs``."""
+    settings = settings or DiagnosisSettings()
+    fit_runs, check_runs = tuple(fit_runs), tuple(check_runs)
+    if not check_runs:
+        raise IdentifyError("no check run: the diagnosis judges on held-out runs, never on the fitted ones")
+    names = [r.name for r in fit_runs + check_runs]
+    if len(set(names)) != len(names):
+        raise IdentifyError(f"run names must be distinct, got {', '.join(names)}")
+    cands = candidates if candidates is not None else library(settings.effects)
+    warnings: list[str] = []
+    base = fit_base(grid, fit_runs, settings.method, thermal_term=settings.thermal_term,
+                    settings=settings.method_settings)
+    warnings += list(base.notes)
+
+    used, rows = [], []
+    for run in check_runs:
+        r = _scored_rows(grid, run, warnings)
+        if r.size == 0:
+            warnings.append(f"{run.name}: no measured point inside the identification range; not used")
+            continue
+        used.append(run)
+        rows.append(r)
+    if not used:
+        raise IdentifyError("no check point lies inside the identification range; nothing to judge the model on")
+    ctx = Context.build(base, fit_runs + tuple(used))
+    n_fit = len(fit_runs)
+    preds = ctx.predictions[n_fit:]
+    regs = np.vstack([base.regressor(run)[r] for run, r in zip(used, rows)])
+    blocks = make_blocks([r.size for r in rows])
+    scored = _Scored(tuple(used), tuple(rows), base.carry_over(regs), blocks)
+
+    measured = np.concatenate([run.outputs[r] for run, r in zip(used, rows)])
+    predicted = np.concatenate([p[r] for p, r in zip(preds, rows)])
+    gap = measured - predicted  # what the model misses; the residual reported is -gap
+    features: dict[str, list[np.ndarray]] = {}
+    for run, r, p in zip(used, rows, preds):
+        for key, value in _features(run, r, p).items():
+            features.setdefault(key, []).append(value)
+    feats = {k: np.concatenate(v) for k, v in features.items()}
+
+    # the reference: the base model with the directions the identification design leaves poorly
+    # determined (noise amplified > AMPLIFICATION into the check predictions) re-estimated on held-out
+    # check blocks, so that identification noise carried through them does not pose as an effect
+    recal, amplification = uncertain_directions(scored.carry)
+    k_recal = recal.shape[1]
+    if k_recal:
+        ref = cross_validate(gap, blocks, [Design(recal)])
+        reference = gap - ref.prediction
+    else:
+        reference = gap
+    carry_rest = scored.carry - recal @ (recal.T @ scored.carry)
+
+    noise = estimate_noise(base, list(used))
+    floor = floor_per_point(noise, base, [(run, r.size) for run, r in zip(used, rows)], carry_rest,
+                            extra=k_recal / max(gap.size, 1)) if noise is not None else None
+    floor_rms = _rms(floor) if floor is not None else None
+    if noise is None:
+        warnings.append("no noise estimate: no repeated runs or set-points, and the base fit leaves too few "
+                        "residual degrees of freedom; bins are judged by their own scatter")
+
+    # the identification points weigh in the joint fit as their noise says (K readings each)
+    fit_weight = 1.0
+    if noise is not None and noise.readings is not None:
+        k_fit = {r.readings for r in fit_runs}
+        k_check = {r.readings for r in used}
+        if len(k_fit) == 1 and len(k_check) == 1 and None not in k_fit | k_check:
+            fit_weight = (noise.sigma_for(k_check.pop()) / noise.sigma_for(k_fit.pop())) ** 2
+
+    # candidates: held-out predictions of the gap
+    ind = onehot(blocks)
+    results, not_assessed = [], []
+    for cand in cands:
+        grid_settings = cand.settings_grid()
+        cols_list = [cand.columns(ctx, s) for s in grid_settings]
+        reason = _assessable(cand, cols_list[0], scored, n_fit)
+        if reason is not None:
+            not_assessed.append((cand.name, reason))
+            continue
+        parts = [_effective(ctx, scored, c) for c in cols_list]
+        visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list[0], floor_rms)
+        designs = [_with_reference(e, a, c, recal) for (e, a, _), c in zip(parts, cols_list)]
+        cv = cross_validate(gap, blocks, designs, base.residual, fit_weight)
+        after = gap - cv.prediction
+        coef = dict(zip(cols_list[0].labels, (float(c) for c in cv.full_coef[: cols_list[0].k])))
+        params = cand.params(ctx, grid_settings[cv.full_setting], coef)
+        results.append((cand, after, params, visible, note))
+
+    sse_base = ind @ reference**2
+    sse = np.array([ind @ a**2 for _, a, *_ in results]).reshape(len(results), blocks.count)
+    boot = bootstrap_mse(np.vstack([sse_base[None, :], sse]), blocks, settings.n_boot, settings.seed)
+    lo_q, hi_q = (1 - CONFIDENCE) / 2, 1 - (1 - CONFIDENCE) / 2
+    shrink_boot = 1.0 - np.sqrt(boot[:, 1:] / boot[:, :1])
+
+    floor_sq = float(np.mean(floor**2)) if floor is not None else None
+    where = bin_residuals(feats, -reference, floor)
+    structure = any(b.significant for w in where for b in w.bins)
+    evidence = Evidence(
+        names=tuple(c.name for c, *_ in results),
+        reference=reference,
+        after=np.array([a for _, a, *_ in results]).reshape(len(results), reference.size),
+        floor=floor,
+        floor_rse=noise.relative_se_of_variance if noise is not None else 0.0,
+        boot=boot,
+        structure=structure,
+    )
+    verdict = evidence.decide()
+    z, mse_base, mse, shrink = evidence.z(), evidence.mse_base, evidence.mse, evidence.shrink
+
+    scores = []
+    for i, (cand, after, params, visible, note) in enumerate(results):
+        share = None
+        if floor_sq is not None and mse_base > floor_sq:
+            share = float((mse_base - mse[i]) / (mse_base - floor_sq))
+        boot_ci = (float(np.quantile(shrink_boot[:, i], lo_q)), float(np.quantile(shrink_boot[:, i], hi_q)))
+        scores.append(CandidateScore(cand.name, float(np.sqrt(mse[i])), float(shrink[i]),
+                                     evidence.interval(i, CONFIDENCE), float(mse_base - mse[i]), float(z[i]),
+                                     params, visible, note, share, boot_ci))
+    order = np.argsort([-s.gain_um2 for s in scores], kind="stable")
+    scores = [scores[i] for i in order]
+    residual_after = {cand.name: -after for cand, after, *_ in results}
+
+    diag_points = CheckPoints(
+        run=np.concatenate([np.full(r.size, i) for i, r in enumerate(rows)]),
+        index=np.concatenate(rows),
+        measured=measured,
+        predicted=predicted,
+        residual=-reference,
+        floor=floor,
+        features=feats,
+    )
+    base_boot = np.sqrt(boot[:, 0])
+    result = Diagnosis(
+        grid=grid,
+        method=base.method,
+        base=base,
+        fit_runs=tuple(r.name for r in fit_runs),
+        check_runs=tuple(r.name for r in used),
+        baseline_rmse_um=float(np.sqrt(mse_base)),
+        fit_only_rmse_um=_rms(gap),
+        amplification=tuple(float(x) for x in amplification[:MAX_REPORTED_AMPLIFICATION]),
+        recalibrated=k_recal,
+        baseline_ci=(float(np.quantile(base_boot, lo_q)), float(np.quantile(base_boot, hi_q))),
+        noise=noise,
+        noise_floor_um=float(np.sqrt(floor_sq)) if floor_sq is not None else None,
+        measurement_noise_um=_rms(np.concatenate([np.full(r.size, noise.sigma_for(run.readings))
+                                                  for run, r in zip(used, rows)])) if noise else None,
+        where=where,
+        candidates=scores,
+        not_assessed=not_assessed,
+        verdict=verdict,
+        points=diag_points,
+        residual_after=residual_after,
+        where_after=None,
+        warnings=warnings,
+        evidence=evidence,
+    )
+    chosen = result.chosen
+    if chosen is not None and chosen in residual_after:
+        object.__setattr__(result, "where_after", bin_residuals(feats, residual_after[chosen], floor))
+    return result

@@ -1,0 +1,283 @@
+"""Held-out scores: blocked cross-validation over the check data, and the block bootstrap.
+
+**Why cross-validation.**  A candidate's coefficients (and its nonlinear
+setting) must be estimated somewhere.  The identification runs often
+cannot tell them apart from the density -- the damped-oscillation design
+is square, so the base model absorbs almost anything those runs contain --
+and per-run nuisance (a drift) exists only in the run it acts on.  So the
+coefficients are estimated on the check data, and every check point is
+scored by a fit that did not see it: the check runs are cut into
+contiguous time blocks; for each block, the coefficients (for every
+setting on the candidate's grid, the setting with the smallest training
+error chosen) are fitted on all *other* blocks and predict the held-out
+block.  Blocks are contiguous in time because the errors of neighbouring
+points are correlated (a transient after a reversal spans several points);
+a drift in a held-out block is interpolated from the blocks around it.
+
+**Joint with the base model.**  The columns fitted here are the effective
+columns ``E = C_check - x_F pinv(X_F) C_fit``: the effect on the check
+points minus what the base fit would have absorbed of it on the
+identification points (:mod:`identify.diagnosis.base`).  Fitting ``E``
+to the base model's check residual is the least-squares fit of the
+candidate together with a base model re-identified on the identification
+data with the candidate included -- the density is never fitted to check
+data.
+
+**Uncertainty.**  Scores are resampled by a stratified block bootstrap:
+each check run's blocks are drawn with replacement, the same draws for the
+baseline and every candidate (paired), so differences between candidates
+have honest standard errors.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..methods.nnls import nnls_free
+
+#: Aim for this many blocks per check run.
+TARGET_BLOCKS = 40
+#: A block holds at least this many scored points.
+MIN_BLOCK_POINTS = 5
+#: Ridge weight relative to the mean diagonal of the Gram matrix of unit-rms columns: shrinks
+#: only the directions the training data hardly see (a drift spline over a time window whose
+#: training points all sit in saturation, where the ambient sensitivity is zero).
+RIDGE = 1e-6
+#: Bootstrap resamples.
+N_BOOT = 2000
+
+
+@dataclass(frozen=True)
+class Blocks:
+    """Contiguous time blocks of the scored check points.
+
+    ``index`` ``(m,)`` block of every scored point (blocks numbered run
+    by run); ``run`` ``(B,)`` the check run each block belongs to;
+    ``size`` ``(B,)`` points per block.
+    """
+
+    index: np.ndarray
+    run: np.ndarray
+    size: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return int(self.size.size)
+
+    def per_run(self, run: int) -> int:
+        return int(np.sum(self.run == run))
+
+
+def make_blocks(points_per_run: list[int]) -> Blocks:
+    """About :data:`TARGET_BLOCKS` contiguous blocks per run, at least :data:`MIN_BLOCK_POINTS` points each."""
+    index, runs, sizes = [], [], []
+    first = 0
+    for r, m in enumerate(points_per_run):
+        nb = max(1, min(TARGET_BLOCKS, m // MIN_BLOCK_POINTS))
+        edges = np.linspace(0, m, nb + 1).round().astype(int)
+        for b in range(nb):
+            index.append(np.full(edges[b + 1] - edges[b], first + b))
+            runs.append(r)
+            sizes.append(edges[b + 1] - edges[b])
+        first += nb
+    return Blocks(np.concatenate(index) if index else np.zeros(0, int), np.asarray(runs), np.asarray(sizes))
+
+
+def solve_coefficients(gram: np.ndarray, rhs: np.ndarray, nonneg: np.ndarray) -> np.ndarray:
+    """``argmin b^T G b - 2 b^T r`` (least squares from its normal equations), ``b[j] >= 0`` where
+    ``nonneg[j]``; batched over leading axes of ``gram`` ``(..., k, k)`` and ``rhs`` ``(..., k)``.
+
+    A ridge of :data:`RIDGE` times the mean diagonal keeps directions the
+    data hardly see at zero.  Constrained coefficients: a single one is
+    clipped at zero (exact for one coefficient); several are handled by an
+    active-set pass, one system at a time.
+    """
+    gram = np.asarray(gram, dtype=float)
+    rhs = np.asarray(rhs, dtype=float)
+    k = rhs.shape[-1]
+    if k == 0:
+        return np.zeros(rhs.shape)
+    ridge = RIDGE * np.trace(gram, axis1=-2, axis2=-1) / k + 1e-300
+    g = gram + ridge[..., None, None] * np.eye(k)
+    coef = np.linalg.solve(g, rhs[..., None])[..., 0]
+    nonneg = np.asarray(nonneg, dtype=bool)
+    if not nonneg.any():
+        return coef
+    if k == 1:
+        return np.maximum(coef, 0.0)
+    if nonneg.sum() == 1:  # one constrained coefficient (a lagging fraction): re-solve the violators without it
+        j = int(np.flatnonzero(nonneg)[0])
+        bad = coef[..., j] < 0
+        if bad.any():
+            keep = np.flatnonzero(np.arange(k) != j)
+            sub = np.linalg.solve(g[bad][:, keep][:, :, keep], rhs[bad][:, keep][..., None])[..., 0]
+            fixed = np.zeros((int(bad.sum()), k))
+            fixed[:, keep] = sub
+            coef[bad] = fixed
+        return coef
+    # several constrained coefficients: NNLS on the Cholesky factor, one system at a time
+    order = np.concatenate([np.flatnonzero(nonneg), np.flatnonzero(~nonneg)])
+    flat_g, flat_r = g.reshape(-1, k, k), rhs.reshape(-1, k)
+    out = coef.reshape(-1, k)
+    for i in range(out.shape[0]):
+        if not (out[i][nonneg] < 0).any():
+            continue
+        chol = np.linalg.cholesky(flat_g[i][np.ix_(order, order)])
+        target = np.linalg.solve(chol, flat_r[i][order])
+        sol, _ = nnls_free(chol.T, target, int(nonneg.sum()))
+        out[i, order] = sol
+    return out.reshape(coef.shape)
+
+
+@dataclass(frozen=True, eq=False)
+class Design:
+    """One setting of a candidate in the joint fit.
+
+    ``check`` ``(m, k)``: the effective columns at the scored check points;
+    ``fit`` ``(m_fit, k)`` or None: what the base fit cannot absorb of them at
+    the identification points; ``roughness`` ``(k, k)`` or None: a penalty
+    ``b^T R b`` on the coefficients ``b`` (in the columns' own units), added
+    with weight ``smoothing`` relative to the data (``smoothing = 1``: the
+    penalty's mean diagonal equals the data Gram matrix's); ``nonneg`` ``(k,)``.
+    """
+
+    check: np.ndarray
+    fit: np.ndarray | None = None
+    roughness: np.ndarray | None = None
+    smoothing: float = 0.0
+    nonneg: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class CrossValidation:
+    """The held-out prediction of the gap ``(m,)``; the setting chosen for each block ``(B,)``;
+    and, for reporting, the setting chosen by cross-validation over all blocks with its
+    coefficients ``(k,)`` fitted on all the data."""
+
+    prediction: np.ndarray
+    chosen: np.ndarray
+    full_setting: int
+    full_coef: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class _Normal:
+    """Normal equations of one setting: totals, per-block parts, and the block outputs."""
+
+    gram: np.ndarray        # (k, k) all data + penalty
+    rhs: np.ndarray         # (k,)
+    block_gram: np.ndarray  # (B, k, k) check part of each block
+    block_rhs: np.ndarray   # (B, k)
+    check: np.ndarray       # (m, k) normalised check columns
+    scale: np.ndarray       # (k,) column scales
+    nonneg: np.ndarray
+
+
+def _normal(design: Design, gap: np.ndarray, ind: np.ndarray, fit_residual, fit_weight: float) -> _Normal:
+    e = np.asarray(design.check, dtype=float)
+    k = e.shape[1]
+    a = None if design.fit is None or fit_residual is None else np.asarray(design.fit, dtype=float)
+    sq, n = np.sum(e * e, axis=0), e.shape[0]
+    if a is not None:
+        sq, n = sq + np.sum(a * a, axis=0), n + a.shape[0]
+    scale = np.where(sq > 0, np.sqrt(sq / max(n, 1)), 1.0)  # unit-rms columns: the ridge treats all alike
+    e = e / scale
+    gram, rhs = e.T @ e, e.T @ gap
+    if a is not None:
+        a = a / scale
+        gram = gram + fit_weight * (a.T @ a)
+        rhs = rhs + fit_weight * (a.T @ fit_residual)
+    if design.roughness is not None and design.smoothing > 0:
+        p = np.asarray(design.roughness, dtype=float) / np.outer(scale, scale)
+        gram = gram + design.smoothing * p * np.trace(gram) / max(np.trace(p), 1e-300)
+    nonneg = np.zeros(k, bool) if design.nonneg is None else np.asarray(design.nonneg, dtype=bool)
+    return _Normal(gram, rhs, np.einsum("bm,mi,mj->bij", ind, e, e), ind @ (e * gap[:, None]), e, scale, nonneg)
+
+
+def _block_sse(ne: _Normal, gg: np.ndarray, coef: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+    """Squared error of ``coef`` ``(..., k)`` on the given blocks (same leading shape)."""
+    r = ne.block_rhs[blocks]
+    g = ne.block_gram[blocks]
+    return gg[blocks] - 2.0 * np.sum(coef * r, axis=-1) + np.einsum("...i,...ij,...j->...", coef, g, coef)
+
+
+def cross_validate(
+    gap: np.ndarray,
+    blocks: Blocks,
+    designs: list[Design],
+    fit_residual: np.ndarray | None = None,
+    fit_weight: float = 1.0,
+) -> CrossValidation:
+    """Leave-one-block-out predictions of ``gap`` ``(m,)`` by a candidate with settings ``designs``.
+
+    ``fit_residual`` ``(m_fit,)`` is the base fit's residual on the
+    identification points: with each design's ``fit`` columns it is the
+    identification part of the joint fit, always in the training data
+    (weight ``fit_weight``), never scored.  For each held-out block the
+    setting is chosen by an inner leave-one-block-out cross-validation on
+    the remaining blocks (so a penalty weight is chosen as fairly as a time
+    constant), then fitted on all remaining blocks and used to predict the
+    held-out one.
+    """
+    nb = blocks.count
+    m = gap.size
+    ind = onehot(blocks)
+    gg = ind @ (gap * gap)
+    normals = [_normal(d, gap, ind, fit_residual, fit_weight) for d in designs]
+    others = np.arange(nb)
+    prediction = np.zeros(m)
+    chosen = np.zeros(nb, int)
+    # outer leave-one-block-out errors of every setting (for the full-data choice)
+    outer = np.zeros((len(normals), nb))
+    outer_coef = []
+    for s, ne in enumerate(normals):
+        coef = solve_coefficients(ne.gram - ne.block_gram, ne.rhs - ne.block_rhs, ne.nonneg)  # (B, k)
+        outer_coef.append(coef)
+        outer[s] = _block_sse(ne, gg, coef, others)
+    for b in range(nb):
+        best = 0
+        if len(normals) > 1:
+            inner = np.array([0.0] * len(normals))
+            rest = others[others != b]
+            for s, ne in enumerate(normals):
+                g = ne.gram - ne.block_gram[b] - ne.block_gram[rest]
+                r = ne.rhs - ne.block_rhs[b] - ne.block_rhs[rest]
+                inner[s] = np.sum(_block_sse(ne, gg, solve_coefficients(g, r, ne.nonneg), rest))
+            best = int(np.argmin(inner))
+        rows = blocks.index == b
+        prediction[rows] = normals[best].check[rows] @ outer_coef[best][b]
+        chosen[b] = best
+    s_full = int(np.argmin(outer.sum(axis=1)))
+    ne = normals[s_full]
+    full = solve_coefficients(ne.gram, ne.rhs, ne.nonneg)
+    return CrossValidation(prediction, chosen, s_full, full / ne.scale)
+
+
+def onehot(blocks: Blocks) -> np.ndarray:
+    """``(B, m)`` indicator of each block's points."""
+    m = blocks.index.size
+    out = np.zeros((blocks.count, m))
+    out[blocks.index, np.arange(m)] = 1.0
+    return out
+
+
+def bootstrap_mse(sse_blocks: np.ndarray, blocks: Blocks, n_boot: int = N_BOOT, seed: int = 0) -> np.ndarray:
+    """Stratified block bootstrap of mean squared errors.
+
+    ``sse_blocks`` ``(c, B)``: sum of squared errors per block for ``c``
+    models (the baseline and each candidate).  Each check run's blocks are
+    resampled with replacement; returns ``(n_boot, c)`` mean squared errors,
+    the same resamples for every model.
+    """
+    rng = np.random.default_rng(seed)
+    nb = blocks.count
+    flat = []
+    for r in np.unique(blocks.run):
+        mine = np.flatnonzero(blocks.run == r)
+        draws = mine[rng.integers(0, mine.size, size=(n_boot, mine.size))]
+        flat.append((np.arange(n_boot)[:, None] * nb + draws).ravel())
+    counts = np.bincount(np.concatenate(flat), minlength=n_boot * nb).reshape(n_boot, nb).astype(float)
+    points = counts @ blocks.size
+    return (counts @ np.asarray(sse_blocks, dtype=float).T) / points[:, None]

@@ -1,0 +1,76 @@
+"""A whole diagnosis on the simulated bench in one call -- what ``rig demo`` ends with.
+
+:func:`diagnose_simulated` records an identification run and a check run
+with one unmodelled effect switched on (through the real sequencer, into
+sessions), fits the base model without it and runs the diagnosis blind;
+it returns the diagnosis with its readable report and ``--json`` object.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from identify.diagnosis import Diagnosis, DiagnosisSettings, diagnose
+
+from .loading import load_runs
+from .report import to_json, to_text
+from .simulate import SimulatedBench, simulate
+
+#: Strengths that open a gap of about ten times the noise level on the default bench
+#: (``benchmarks/diagnose_bench.py`` calibrates them; rounded).
+DEMO_STRENGTHS = {
+    "thermal_lag": 0.035,
+    "baseline_drift": 0.009,
+    "ambient_drift": 0.046,
+    "joule_power": 0.093,
+    "creep": 0.06,
+    "sensor_nonlinearity": 0.24,
+}
+#: The effect the demo switches on unless told otherwise.
+DEMO_EFFECT = "creep"
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedDiagnosis:
+    """The effect switched on and its strength, the two sessions, the diagnosis and its reports."""
+
+    effect: str | None
+    strength: float
+    fit_path: Path
+    check_path: Path
+    diagnosis: Diagnosis
+    text: str
+    json: dict[str, Any]
+
+
+def diagnose_simulated(
+    effect: str | None = DEMO_EFFECT,
+    strength: float | None = None,
+    *,
+    seed: int = 0,
+    directory: str | Path | None = None,
+    levels: int = 30,
+    check_points: int = 200,
+) -> SimulatedDiagnosis:
+    """Simulate both runs with ``effect`` on (None: no effect) and diagnose them blind.
+
+    ``strength`` defaults to :data:`DEMO_STRENGTHS`; the sessions are
+    written to ``directory`` (default: a temporary directory, removed
+    afterwards -- the returned paths then no longer exist).  A few seconds
+    on the virtual clock.
+    """
+    if strength is None:
+        strength = DEMO_STRENGTHS.get(effect, 0.0) if effect else 0.0
+    bench = SimulatedBench(effect, strength, levels=levels, check_points=check_points, seed=seed)
+    with tempfile.TemporaryDirectory() as tmp:
+        where = Path(directory) if directory is not None else Path(tmp)
+        where.mkdir(parents=True, exist_ok=True)
+        fit, check = simulate(bench, where)
+        loaded = load_runs([fit], [check])
+    result = diagnose(loaded.fit, loaded.check, loaded.grid, DiagnosisSettings())
+    names = ([fit.name], [check.name])
+    return SimulatedDiagnosis(effect, float(strength), fit, check, result,
+                              to_text(result, *names, loaded.warnings), to_json(result, *names, loaded.warnings))

@@ -1,0 +1,187 @@
+"""What ``rig diagnose`` says: the ``--json`` object (the issue's contract) and the readable report."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from identify.diagnosis import Diagnosis
+from identify.diagnosis.binning import Binning
+from identify.diagnosis.candidates import CANDIDATES
+
+from ..output import format_table
+
+
+def _bins(binning: Binning) -> list[dict[str, Any]]:
+    out = []
+    for b in binning.bins:
+        row = {"lo": b.lo, "hi": b.hi, "mean_um": b.mean_um, "rms_um": b.rms_um, "n": b.n,
+               "significant": b.significant}
+        if b.label:
+            row["label"] = b.label
+        out.append(row)
+    return out
+
+
+def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str]) -> dict[str, Any]:
+    """The ``--json`` object: ``baseline``, ``where``, ``candidates``, ``verdict`` (the contract), and
+    the extras documented in the README."""
+    after = {w.by: w for w in d.where_after} if d.where_after is not None else {}
+    chosen = d.chosen
+    where = []
+    for w in d.where:
+        entry: dict[str, Any] = {"by": w.by, "unit": w.unit, "bins": _bins(w)}
+        if w.by in after:
+            entry["after"] = {"effect": chosen, "bins": _bins(after[w.by])}
+        where.append(entry)
+    leading = d.score(chosen) if chosen else None
+    noise = d.noise
+    return {
+        "baseline": {
+            "rmse_um": d.baseline_rmse_um,
+            "noise_floor_um": d.noise_floor_um,
+            "ci": list(d.baseline_ci),
+            "fit_only_rmse_um": d.fit_only_rmse_um,
+            "measurement_noise_um": d.measurement_noise_um,
+            "noise_source": noise.source if noise else None,
+            "noise_detail": noise.detail if noise else None,
+            "recalibrated_directions": d.recalibrated,
+            "noise_amplification": list(d.amplification),
+            "n_points": int(d.points.residual.size),
+        },
+        "where": where,
+        "candidates": [
+            {
+                "effect": c.effect,
+                "rmse_um": c.rmse_um,
+                "shrink": c.shrink,
+                "ci": list(c.ci),
+                "params": c.params,
+                "z": c.z,
+                "gain_um2": c.gain_um2,
+                "share_closed": c.share_closed,
+                "visible": c.visible,
+                "note": c.note or None,
+                "ci_block_bootstrap": list(c.ci_block_bootstrap),
+            }
+            for c in d.candidates
+        ],
+        "verdict": {
+            "status": d.verdict.status,
+            "effect": d.verdict.effect,
+            "shrink": d.verdict.shrink,
+            "contenders": list(d.verdict.contenders),
+            "reason": d.verdict.reason,
+            "rmse_with_um": leading.rmse_um if leading and d.verdict.status in ("explained", "ambiguous") else None,
+            "share_closed": d.verdict.share_closed,
+            "not_visible": [c.effect for c in d.candidates if not c.visible],
+        },
+        "not_assessed": [{"effect": e, "reason": r} for e, r in d.not_assessed],
+        "warnings": list(warnings) + list(d.warnings),
+        "fit": fit,
+        "check": check,
+        "grid": {"levels": d.grid.levels, "v_min": d.grid.v_min, "v_max": d.grid.v_max},
+        "method": d.method,
+    }
+
+
+def _fmt(x: float | None, spec: str = ".4g") -> str:
+    return "-" if x is None or not np.isfinite(x) else format(x, spec)
+
+
+#: Bins shown per quantity in the readable report (the most extreme of those that stand out).
+SHOWN_BINS = 2
+
+
+def _stand_out(w: Binning) -> str | None:
+    out = [b for b in w.bins if b.significant]
+    if not out:
+        return None
+    top = sorted(out, key=lambda b: -max(abs(b.mean_um), b.rms_um))[:SHOWN_BINS]
+    text = "; ".join(
+        f"{b.label or f'{b.lo:.3g}..{b.hi:.3g} {w.unit}'.rstrip()}: mean {b.mean_um:+.2g}, rms {b.rms_um:.2g} um (n={b.n})"
+        for b in top
+    )
+    return f"{len(out)} of {len(w.bins)} bins stand out, most: {text}"
+
+
+def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str]) -> str:
+    """The readable report: how far, where, which, and the verdict."""
+    lines = [
+        f"Gap diagnosis: equation (22) fitted on {', '.join(fit)} ({d.method}, L={d.grid.levels} on "
+        f"[{d.grid.v_min:g}, {d.grid.v_max:g}] V), judged on {', '.join(check)} "
+        f"({d.points.residual.size} held-out points)",
+        "",
+    ]
+    for w in list(warnings) + list(d.warnings):
+        lines.append(f"warning: {w}")
+    if warnings or d.warnings:
+        lines.append("")
+    v = d.verdict
+    headline = {
+        "explained": f"EXPLAINED by {v.effect}",
+        "ambiguous": f"AMBIGUOUS between {', '.join(v.contenders)}",
+        "unexplained": "UNEXPLAINED" + (f" (best partial: {v.contenders[0]})" if v.contenders else ""),
+        "no_gap": "NO GAP",
+    }[v.status]
+    lines.append(f"Verdict: {headline} -- {v.reason}.")
+    noise = d.noise
+    floor = (f"noise floor {_fmt(d.noise_floor_um)} um (measurement noise {_fmt(d.measurement_noise_um)} um "
+             f"from {noise.source}, plus identification noise carried by the fit)" if noise else
+             "noise floor unknown")
+    lines.append(f"How far: held-out RMSE {_fmt(d.baseline_rmse_um)} um; {floor}.")
+    if d.recalibrated:
+        lines.append(
+            f"  (as identified the model misses by {_fmt(d.fit_only_rmse_um)} um; {d.recalibrated} direction(s) of "
+            f"the fit into which the identification design amplifies noise (x{d.amplification[0]:.1f}; on the "
+            f"damped oscillation chiefly the thermal term, identified through one point) are re-estimated on "
+            f"held-out check blocks first)"
+        )
+    chosen = d.chosen
+    if chosen is not None:
+        c = d.score(chosen)
+        share = f", {100 * c.share_closed:.0f} % of the excess over the noise floor" if c.share_closed is not None else ""
+        lines.append(f"  with {chosen}: {_fmt(c.rmse_um)} um, shrink {100 * c.shrink:.0f} % "
+                     f"[{100 * c.ci[0]:.0f}, {100 * c.ci[1]:.0f}]{share}.")
+    lines.append("")
+    lines.append("Where (residual = model - measured; bins that stand out beyond the noise):")
+    any_out = False
+    for w in d.where:
+        out = _stand_out(w)
+        if out:
+            any_out = True
+            lines.append(f"  by {w.by}: {out}")
+    if not any_out:
+        lines.append("  no bin stands out")
+    lines.append("")
+    lines.append("Which (held-out, every candidate fitted jointly with the base model):")
+    rows = []
+    for c in d.candidates:
+        rows.append([c.effect, c.rmse_um, f"{100 * c.shrink:+.0f} %", f"[{100 * c.ci[0]:+.0f}, {100 * c.ci[1]:+.0f}]",
+                     round(c.z, 1), "-" if c.share_closed is None else f"{100 * c.share_closed:.0f} %",
+                     "yes" if c.visible else "no"])
+    lines.append(format_table(["effect", "rmse_um", "shrink", "95% interval", "z", "of excess", "visible"], rows))
+    for c in d.candidates:
+        if c.note:
+            lines.append(f"  {c.effect}: {c.note}")
+    for effect, reason in d.not_assessed:
+        lines.append(f"  {effect}: not assessed -- {reason}")
+    if chosen is not None:
+        lines.append("")
+        lines.append(f"{chosen}: {CANDIDATES[chosen].summary}; fitted: {_params_text(d.score(chosen).params)}")
+    return "\n".join(lines)
+
+
+def _params_text(params: dict[str, Any], depth: int = 0) -> str:
+    parts = []
+    for k, v in params.items():
+        if isinstance(v, dict):
+            if depth >= 1:
+                continue
+            parts.append(f"{k} {{{_params_text(v, depth + 1)}}}")
+        elif isinstance(v, float):
+            parts.append(f"{k} {v:.3g}")
+        else:
+            parts.append(f"{k} {v}")
+    return ", ".join(parts)

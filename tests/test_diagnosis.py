@@ -1,0 +1,283 @@
+"""The gap diagnosis's numerics: input histories, joint columns, cross-validation, noise, verdicts."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.optimize
+
+from identify import Grid, IdentifyError, damped_oscillation
+from identify.diagnosis import Run, check_design, diagnose, library
+from identify.diagnosis.base import fit_base, uncertain_directions
+from identify.diagnosis.candidates import Context, ThermalLagCandidate
+from identify.diagnosis.noise import NoiseEstimate, combine, from_repeated_runs, from_repeated_visits
+from identify.diagnosis.scoring import Design, bootstrap_mse, cross_validate, make_blocks, solve_coefficients
+from identify.diagnosis.verdict import Evidence
+
+SIGMA = 0.005
+
+
+def run_of(name, v, y, dwell, readings=4):
+    dwell = np.asarray(dwell, dtype=float)
+    t = np.cumsum(dwell)
+    return Run(name, np.asarray(v, dtype=float), np.asarray(y, dtype=float), t, dwell, readings)
+
+
+# ---------------------------------------------------------------- input histories
+def test_history_branches_reversals_and_times_by_hand():
+    #        0    1    2    3    4    5    6
+    v = [1.0, 3.0, 2.0, 2.0, 4.0, 5.0, 1.0]
+    dwell = [10, 20, 10, 30, 10, 10, 10]
+    h = run_of("r", v, np.zeros(7), dwell).history
+    # rising from 0 V, turning back at 3 V (point 1) and at 2 V (plateau 2-3, last point 3), then at 5 V
+    assert h.reversal_index.tolist() == [1, 3, 5]
+    assert h.turn_index.tolist() == [2, 4, 6]
+    assert h.excursion_V.tolist() == [3.0, -1.0, 3.0]
+    t = np.cumsum(dwell)  # readings at 10, 30, 40, 70, 80, 90, 100; set-points at t - dwell
+    assert h.turn_t.tolist() == [t[2] - 10, t[4] - 10, t[6] - 10]
+    assert h.branch.tolist() == [1, 1, 0, 0, 0, 1, 0]  # a repeated set-point keeps its branch
+    assert h.last_step_V.tolist() == [1.0, 2.0, -1.0, 0.0, 2.0, 1.0, -4.0]
+    assert h.since_reversal_s.tolist() == [10.0, 30.0, 10.0, 40.0, 10.0, 20.0, 10.0]
+    assert h.after_turn()[:, 0].tolist() == [False, False, True, True, True, True, True]
+
+
+def test_check_design_stays_on_the_range_and_mixes_steps_dwells_and_repeats():
+    d = check_design(0.0, 6.0, 300, seed=4)
+    assert d.inputs.shape == d.dwell_s.shape == (300,)
+    assert d.inputs.min() >= 0.0 and d.inputs.max() <= 6.0
+    assert set(np.unique(d.dwell_s)) == {8.0, 15.0, 30.0, 60.0}
+    steps = np.abs(np.diff(d.inputs))
+    assert (steps == 0).sum() >= 20 and steps.max() > 2.0 and np.median(steps[steps > 0]) < 1.0
+    assert np.array_equal(check_design(0.0, 6.0, 300, seed=4).inputs, d.inputs)
+    with pytest.raises(IdentifyError):
+        check_design(1.0, 1.0, 10)
+
+
+# ---------------------------------------------------------------- linear algebra of the joint fit
+def test_solve_coefficients_matches_nnls_and_least_squares():
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(40, 3))
+    y = a @ np.array([-1.0, 0.5, 2.0]) + 0.01 * rng.normal(size=40)
+    free = solve_coefficients(a.T @ a, a.T @ y, np.zeros(3, bool))
+    np.testing.assert_allclose(free, np.linalg.lstsq(a, y, rcond=None)[0], rtol=1e-5)  # the tiny ridge
+    one = solve_coefficients(a.T @ a, a.T @ y, np.array([True, False, False]))
+    ref = scipy.optimize.lsq_linear(a, y, bounds=([0, -np.inf, -np.inf], np.inf)).x
+    np.testing.assert_allclose(one, ref, atol=1e-5)
+    two = solve_coefficients(a.T @ a, a.T @ y, np.array([True, True, False]))
+    ref = scipy.optimize.lsq_linear(a, y, bounds=([0, 0, -np.inf], np.inf)).x
+    np.testing.assert_allclose(two, ref, atol=1e-5)
+    # batched: one system per leading index
+    grams = np.stack([a.T @ a, 2 * a.T @ a])
+    rhs = np.stack([a.T @ y, 2 * a.T @ y])
+    np.testing.assert_allclose(solve_coefficients(grams, rhs, np.zeros(3, bool)), np.stack([free, free]), rtol=1e-9)
+
+
+def test_cross_validation_recovers_a_structure_and_picks_its_setting():
+    rng = np.random.default_rng(1)
+    m = 200
+    x = np.linspace(0, 1, m)
+    designs = [Design(np.stack([np.exp(-x / tau), x], axis=1)) for tau in (0.05, 0.2, 1.0)]
+    gap = designs[1].check @ np.array([2.0, -1.0])
+    blocks = make_blocks([m])
+    cv = cross_validate(gap, blocks, designs)
+    assert blocks.count == 40 and cv.full_setting == 1
+    np.testing.assert_allclose(cv.full_coef, [2.0, -1.0], rtol=1e-5)
+    np.testing.assert_allclose(cv.prediction, gap, atol=1e-5)  # held out, yet exact without noise
+    # pure noise: the held-out prediction does not beat doing nothing
+    noise = rng.normal(size=m)
+    cv = cross_validate(noise, blocks, designs)
+    assert np.mean((noise - cv.prediction) ** 2) >= np.mean(noise**2) * 0.98
+
+
+def test_identification_terms_take_part_in_the_fit_but_are_never_scored():
+    m, m_fit = 60, 100
+    check = np.ones((m, 1))
+    fit = np.ones((m_fit, 1))
+    # the check data say 1, the identification residual says 3; with 100 fit points against 60 the
+    # joint coefficient is their weighted mean, and only check points are predicted
+    cv = cross_validate(np.ones(m), make_blocks([m]), [Design(check, fit)], fit_residual=3.0 * np.ones(m_fit))
+    assert cv.prediction.shape == (m,)
+    assert cv.full_coef[0] == pytest.approx((60 * 1 + 100 * 3) / 160, rel=1e-5)
+
+
+def test_block_bootstrap_is_paired_and_stratified():
+    blocks = make_blocks([50, 30])
+    assert blocks.run.tolist() == [0] * 10 + [1] * 6
+    sse = np.vstack([blocks.size * 1.0, blocks.size * 4.0])
+    boot = bootstrap_mse(sse, blocks, n_boot=200, seed=3)
+    np.testing.assert_allclose(boot[:, 0], 1.0)
+    np.testing.assert_allclose(boot[:, 1], 4.0)
+
+
+# ---------------------------------------------------------------- noise
+def test_repeated_runs_cancel_deterministic_effects_and_drifts():
+    rng = np.random.default_rng(2)
+    v = np.linspace(0.5, 5.5, 300)
+    response = np.sin(v) + 0.3 * (np.arange(300) % 7)  # anything deterministic, the same twice
+    a = run_of("a", v, response + 0.02 * np.linspace(0, 1, 300) + SIGMA * rng.normal(size=300), np.full(300, 20))
+    b = run_of("b", v, response - 0.05 * np.linspace(0, 1, 300) ** 2 + SIGMA * rng.normal(size=300),
+               np.full(300, 20))
+    est = from_repeated_runs([a, b])
+    assert est.source == "repeated_runs" and est.sigma_um == pytest.approx(SIGMA, rel=0.12)
+
+
+def test_repeated_visits_and_pooling():
+    rng = np.random.default_rng(3)
+    v = np.repeat(np.linspace(0.5, 5.5, 100), 2)
+    r = run_of("c", v, np.cos(v) + SIGMA * rng.normal(size=200), np.full(200, 10))
+    est = from_repeated_visits([r])
+    assert est.dof == 100 and est.sigma_um == pytest.approx(SIGMA, rel=0.2)
+    other = NoiseEstimate(SIGMA * 1.02, 4, "fit_residual", 300, "x")
+    pooled = combine(est, other)
+    assert pooled.source == "repeated_visits+fit_residual" and pooled.dof == 400
+    inflated = NoiseEstimate(SIGMA * 3, 4, "fit_residual", 300, "x")
+    kept = combine(est, inflated)
+    assert kept.source == "repeated_visits" and "not used" in kept.detail
+    assert NoiseEstimate(0.01, 4, "x", 10, "").sigma_for(16) == pytest.approx(0.005)
+
+
+# ---------------------------------------------------------------- verdicts
+def evidence(after: list[np.ndarray], reference: np.ndarray, floor: float | None = SIGMA) -> Evidence:
+    m = reference.size
+    names = tuple(f"e{i}" for i in range(len(after)))
+    boot = np.tile(np.concatenate([[np.mean(reference**2)], [np.mean(a**2) for a in after]]), (50, 1))
+    return Evidence(names, reference, np.array(after), None if floor is None else np.full(m, floor), 0.05, boot,
+                    False)
+
+
+def test_verdicts_from_held_out_residuals():
+    rng = np.random.default_rng(4)
+    m = 300
+    noise = SIGMA * rng.normal(size=m)
+    effect = 4 * SIGMA * np.sin(np.arange(m) / 7.0)
+    nothing = noise + 1e-4 * rng.normal(size=m)
+    # the first candidate explains the structure, the second does not
+    assert evidence([noise, noise + effect], noise + effect).decide().effect == "e0"
+    # both explain it alike, each with its own small misfit: ambiguous, naming both
+    e0, e1 = 0.3 * SIGMA * rng.normal(size=m), 0.3 * SIGMA * rng.normal(size=m)
+    v = evidence([noise + e0, noise + e1], noise + effect).decide()
+    assert v.status == "ambiguous" and set(v.contenders) == {"e0", "e1"}
+    # a structure no candidate touches
+    v = evidence([noise + effect, noise + effect], noise + effect).decide()
+    assert v.status == "unexplained" and v.effect is None
+    # a candidate that closes a quarter of the excess is not named
+    v = evidence([noise + 0.85 * effect], noise + effect).decide()
+    assert v.status == "unexplained" and v.contenders == ("e0",) and v.share_closed < 0.5
+    # nothing but noise
+    v = evidence([nothing, nothing], noise).decide()
+    assert v.status == "no_gap"
+    # a sub-library: without e0 the structure is unexplained, never attributed to e1
+    assert evidence([noise, noise + effect], noise + effect).decide(exclude=("e0",)).status == "unexplained"
+
+
+# ---------------------------------------------------------------- the whole diagnosis on a model
+def synthetic(grid: Grid, extra=None, seed=0):
+    """An identification run and a check run of a known Preisach model, plus an optional effect
+    ``extra(run_inputs, t_s) -> um`` on the check run only."""
+    from drivers.sim import SimParams, SimVO2
+
+    truth = SimVO2(SimParams(levels=grid.levels)).true_model()
+    rng = np.random.default_rng(seed)
+    v_fit = damped_oscillation(grid, True)
+    fit = run_of("fit", v_fit, truth.predict(v_fit) + SIGMA * rng.normal(size=v_fit.size), np.full(v_fit.size, 20))
+    d = check_design(grid.v_min, grid.v_max, 160, seed=seed + 10)
+    y = truth.predict(d.inputs) + SIGMA * rng.normal(size=d.inputs.size)
+    t = np.cumsum(d.dwell_s)
+    if extra is not None:
+        y = y + extra(d.inputs, t)
+    check = Run("check", d.inputs, y, t, d.dwell_s, 4)
+    return fit, check
+
+
+GRID = Grid(12, 0.0, 6.0)
+
+
+def test_a_drift_of_the_check_run_is_found_and_how_far_it_goes():
+    fit, check = synthetic(GRID, lambda v, t: 0.05 * np.sin(t / 1500.0))
+    d = diagnose([fit], [check], GRID)
+    assert d.verdict.status == "explained" and d.verdict.effect == "baseline_drift"
+    best = d.candidates[0]
+    assert best.effect == "baseline_drift" and best.shrink > 0.5 and best.ci[0] > 0
+    assert d.baseline_rmse_um > 5 * d.noise_floor_um
+    assert best.rmse_um == pytest.approx(d.baseline_rmse_um * (1 - best.shrink))
+    assert [w.by for w in d.where] == ["input_V", "branch", "time_since_reversal_s", "last_step_V",
+                                       "predicted_um", "session_time_s"]
+    assert any(b.significant for b in d.where[-1].bins)  # session time
+    assert d.where_after is not None and not any(b.significant for w in d.where_after for b in w.bins)
+    # without its candidate, nothing else is named
+    assert d.verdict_without(["baseline_drift"]).status in ("unexplained", "ambiguous")
+
+
+def test_no_effect_is_no_gap_and_bad_check_points_are_reported_not_fatal():
+    fit, check = synthetic(GRID, seed=3)
+    d = diagnose([fit], [check], GRID)
+    assert d.verdict.status == "no_gap"
+    assert d.noise is not None and d.noise_floor_um == pytest.approx(d.baseline_rmse_um, rel=0.35)
+    # points beyond the identification range are left out and said so
+    v = check.inputs.copy()
+    v[5] = 6.5
+    wide = Run("wide", v, check.outputs, check.t_s, check.dwell_s, 4)
+    d = diagnose([fit], [wide], GRID)
+    assert d.points.residual.size == check.rows.size - 1
+    assert any("outside the identification range" in w for w in d.warnings)
+    # a check run too short for per-run drifts: those candidates are not assessed, the rest are
+    short = Run("short", check.inputs[:12], check.outputs[:12], check.t_s[:12], check.dwell_s[:12], 4)
+    d = diagnose([fit], [short], GRID)
+    skipped = dict(d.not_assessed)
+    assert set(skipped) == {"baseline_drift", "ambient_drift"} and "scored points" in skipped["baseline_drift"]
+    assert {c.effect for c in d.candidates} == {"thermal_lag", "joule_power", "creep", "sensor_nonlinearity"}
+    with pytest.raises(IdentifyError, match="inside the identification range"):
+        out = Run("out", np.full(12, 7.0), check.outputs[:12], check.t_s[:12], check.dwell_s[:12], 4)
+        diagnose([fit], [out], GRID)
+    with pytest.raises(IdentifyError, match="no check run"):
+        diagnose([fit], [], GRID)
+
+
+def test_thermal_lag_cannot_be_seen_when_every_dwell_is_long():
+    fit, check = synthetic(GRID, seed=5)
+
+    def hourly(r):
+        return Run(r.name, r.inputs, r.outputs, np.cumsum(np.full(r.n, 3600.0)), np.full(r.n, 3600.0), 4)
+
+    d = diagnose([hourly(fit)], [hourly(check)], GRID)
+    lag = d.score("thermal_lag")
+    assert not lag.visible and "input design" in lag.note
+    assert "thermal_lag" in {c.effect for c in d.candidates if not c.visible}
+
+
+def test_lagged_inputs_blend_heater_power_by_hand():
+    run = run_of("r", [2.0, 4.0], [0.0, 0.0], [1.0, 2.0])
+    x = ThermalLagCandidate.lagged_inputs(run, tau=1.0)
+    p0 = 4.0 * (1 - math.exp(-1.0))  # from 0 V towards 2 V for 1 s, in squared volts
+    p1 = 16.0 + (p0 - 16.0) * math.exp(-2.0)
+    np.testing.assert_allclose(x, np.sqrt([p0, p1]))
+
+
+def test_the_base_fit_exposes_its_poorly_determined_direction():
+    grid = Grid(30, 0.0, 6.0)
+    fit, check = synthetic(grid, seed=0)
+    base = fit_base(grid, [fit])
+    carry = base.carry_over(base.regressor(check)[check.rows])
+    # the linearisation reproduces the fit: carry-over of the identification outputs = prediction
+    np.testing.assert_allclose(carry @ base.measured, base.predict(check)[check.rows], atol=1e-8)
+    u, s = uncertain_directions(carry)
+    # on the L = 30 damped oscillation one direction (the thermal term, through one point) can amplify
+    # identification noise about tenfold into the check predictions (how much depends on the cells NNLS
+    # leaves free around the thermal point); the rest far less
+    assert s[0] > 6.0 and s[1] < 3.0 and u.shape[1] == 1
+    np.testing.assert_allclose(u.T @ u, np.eye(1), atol=1e-10)
+    ctx = Context.build(base, (fit, check))
+    for cand in library():
+        cols = cand.columns(ctx, cand.settings_grid()[0])
+        assert [c.shape for c in cols.values] == [(fit.n, cols.k), (check.n, cols.k)]
+
+
+@pytest.mark.parametrize("method", ["ls", "smooth_nn"])
+def test_the_linearised_base_fit_reproduces_its_predictions(method):
+    fit, check = synthetic(GRID, seed=2)
+    base = fit_base(GRID, [fit], method)
+    carry = base.carry_over(base.regressor(check)[check.rows])
+    np.testing.assert_allclose(carry @ base.measured, base.predict(check)[check.rows], atol=1e-9)
+    np.testing.assert_allclose(base.unabsorbed(base.measured[:, None])[:, 0], base.residual, atol=1e-9)
