@@ -189,7 +189,7 @@ def load_runs(fit_paths: list[Path], check_paths: list[Path], levels: int | None
             step = stride if stride is not None else default_stride(rows.size)
             kept = thin_rows(data.curves, rows, step)
             if kept.size < rows.size:
-                warnings.append(f"{name}: every {step}th measured point of each curve is used ({kept.size} of "
+                warnings.append(f"{name}: one measured point in {step} of each curve is used ({kept.size} of "
                                 f"{rows.size}; --stride)")
             runs.append(thin_run(run_of(data, name, kept)))
         else:
