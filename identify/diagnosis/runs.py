@@ -124,9 +124,9 @@ class History:
     from it, and the excursion that ended there (from the previous
     reversal, or from ``initial_V``); ``turn_index`` ``(R,)`` the first
     point after each reversal (the one whose set-point turned back).
-    ``reversal_V`` ``(n,)``: the input at the last reversal before each
-    point (NaN before the first); on a first-order reversal curve, the
-    curve's reversal field.
+    ``reversal_V`` ``(n,)``: the input at the last reversal point at or
+    before each point (NaN before the first); on a first-order reversal
+    curve, the curve's reversal field.
     """
 
     branch: np.ndarray
@@ -174,5 +174,7 @@ class History:
         last_turn = np.searchsorted(first_after, np.arange(n), side="right") - 1
         start = run.setpoint_t[0]
         since = run.t_s - np.where(last_turn >= 0, turn_t[np.maximum(last_turn, 0)], start)
-        rev_at = np.where(last_turn >= 0, v[rev_idx[np.maximum(last_turn, 0)]] if rev_idx.size else np.nan, np.nan)
+        at_or_before = np.searchsorted(rev_idx, np.arange(n), side="right") - 1
+        rev_at = v[rev_idx[np.maximum(at_or_before, 0)]] if rev_idx.size else np.zeros(n)
+        rev_at = np.where(at_or_before >= 0, rev_at, np.nan)
         return cls(branch, since, step, rev_idx, first_after, turn_t, excursion, rev_at)
