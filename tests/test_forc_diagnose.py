@@ -3,6 +3,9 @@ apply, and the drift monitor."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -151,3 +154,26 @@ def test_rig_diagnose_refusals_on_forc_sessions(forc_session, tmp_path):
     assert_one_line_error(rig_here("diagnose", "--fit", forc_session, "--check", forc_session, "--fit-curves",
                                    "even", "--check-curves", "odd", "--levels", 8, "--stride", 0), "stride")
     assert forc_session.read_bytes() == before
+
+
+SHARED = Path(os.environ.get("VO2RIG_FORC_FILE", "/work/shared/data/forc/MD00-2361.forc"))
+
+
+@pytest.mark.skipif(not SHARED.is_file(), reason="the shared FORC measurement is not on this machine")
+def test_rig_diagnose_on_the_shared_measurement(tmp_path):
+    session = tmp_path / "md.h5"
+    assert rig_here("import", "--format", "micromag", SHARED, "--out", session).code == 0
+    run = rig_here("diagnose", "--fit", session, "--check", session, "--fit-curves", "even", "--check-curves",
+                   "odd", "--levels", 12, "--stride", 100, "--json")
+    assert run.code == 0, run.err
+    out = run.json()
+    s = read_session(session)
+    odd = np.flatnonzero(s.measured & (s.curves % 2 == 1))
+    # one point in 100 of every odd curve, its reversal point first
+    assert out["baseline"]["n_points"] == thin_rows(s.curves, odd, 100).size
+    assert out["units"] == {"input": "T", "output": "A m^2"} and out["drift_monitor"]["n"] == 297
+    # no repeated runs or set-points: the calibration points give the noise, far below the model error
+    assert out["baseline"]["noise_source"] == "drift_monitor"
+    assert out["baseline"]["noise_floor_um"] < 0.1 * out["baseline"]["rmse_um"]
+    assert {e["effect"] for e in out["not_assessed"]} == HEATER_EFFECTS
+    assert out["verdict"]["status"] != "no_gap"
