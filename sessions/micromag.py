@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DataFileError
+from .textfiles import finite_number, read_bytes
 
 #: The end marker of a Series 0016 file.
 END_MARKER = "MicroMag 2900/3900 Data File ends"
@@ -150,16 +151,7 @@ class MicroMagHeader:
                 where = "is missing" if entry is None else f"is N/A (line {entry.line})"
                 raise DataFileError(f"{path}: the header's {names} {where}; it is needed to import the FORCs")
             return None
-        text = entry.text.strip().strip('"')
-        try:
-            value = float(text)
-        except ValueError:
-            raise DataFileError(
-                f"{path}: line {entry.line}: {SETTING_NAMES[setting][0]} value {entry.text!r} is not a number"
-            ) from None
-        if not np.isfinite(value):
-            raise DataFileError(f"{path}: line {entry.line}: {SETTING_NAMES[setting][0]} is not finite")
-        return value
+        return finite_number(entry.text.strip().strip('"'), f"{path}: line {entry.line}", SETTING_NAMES[setting][0])
 
     def text(self, setting: str) -> str | None:
         entry = self.entry(setting)
@@ -210,14 +202,7 @@ class ForcFile:
 # ---------------------------------------------------------------- reading
 def read_lines(path: Path) -> list[str]:
     """The file's lines (Latin-1, any line ending), or :class:`DataFileError` saying why not."""
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise DataFileError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise DataFileError(f"{path}: is a directory, not a MicroMag file") from None
-    except OSError as exc:
-        raise DataFileError(f"{path}: cannot read ({exc.strerror})") from None
+    raw = read_bytes(path, "a MicroMag file")
     if not raw.strip():
         raise DataFileError(f"{path}: empty file, not a MicroMag data file")
     if b"\x00" in raw[:4096]:
