@@ -237,3 +237,21 @@ def test_the_shared_measurement(tmp_path):
     s = read_session(out)
     assert s.n_samples == 83585 + 2 * 297 and s.measured.sum() == 83585
     assert s.t_s[-1] < 19991.81 and np.all(np.diff(s.t_s) > 0)
+
+
+@pytest.mark.parametrize("style", ["0016", "0015"])
+def test_a_bad_file_over_an_existing_session_exits_2_and_touches_nothing(tmp_path, data, style):
+    from .cli import assert_one_line_error, rig_here
+
+    lines = (lines_0016 if style == "0016" else lines_0015)(data)
+    good = write_lines(tmp_path / "good.forc", lines)
+    out = tmp_path / "s.h5"
+    assert rig_here("import", "--format", "micromag", good, "--out", out).code == 0
+    session_before = out.read_bytes()
+    cut = first_data_line(lines) + 25
+    bad = write_lines(tmp_path / "bad.forc", lines[:cut] + ["+12.00000E-03,+1.2E"] + lines[cut + 1:])
+    file_before = bad.read_bytes()
+    run = rig_here("import", "--format", "micromag", bad, "--out", out, "--force")
+    assert_one_line_error(run, f"line {cut + 1}")
+    assert out.read_bytes() == session_before and bad.read_bytes() == file_before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.forc", "good.forc", "s.h5"]
