@@ -91,12 +91,15 @@ def fit_sequence(
     initial: InitialState = "negative",
     history: np.ndarray | None = None,
     settings: dict[str, Any] | None = None,
+    curves: np.ndarray | None = None,
 ) -> FitReport:
     """Identify a model from inputs (V) and outputs (um) of equal length ``n``.
 
     ``rows`` (explicit measured rows) and ``measurements`` (how many to
     choose at random with ``seed``) are alternatives; with neither, every row
-    with a finite output is used.
+    with a finite output is used.  ``curves`` ``(n,)`` numbers the
+    first-order reversal curve of every row (-1: none), for methods that
+    identify from curves (``everett``).
     """
     inputs = np.asarray(inputs, dtype=float)
     outputs = np.asarray(outputs, dtype=float)
@@ -107,7 +110,7 @@ def fit_sequence(
     if rows is None and measurements is not None:
         rows = measurement_rows(grid, inputs, measurements, seed, thermal_term)
     estimator = make_method(method, **(settings or {}))
-    problem = Problem.build(grid, inputs, outputs, rows, thermal_term, initial, history)
+    problem = Problem.build(grid, inputs, outputs, rows, thermal_term, initial, history, curves=curves)
     estimator.fit(problem)
     fitted = problem.fitted(estimator.parameters_)[problem.rows]
     err = fitted - problem.measured

@@ -35,6 +35,7 @@ from sessions import ModelRecord, add_model
 from sessions.models import check_model_name
 from sessions.recording import Recording
 
+from .curve_selection import selected_rows
 from .errors import UserError
 from .session_input import open_run, partial_state, same_file
 
@@ -57,14 +58,21 @@ def report_dict(report: FitReport, thermal_term: bool, seed: int | None) -> dict
 
 
 def default_range(data: Recording) -> tuple[float, float]:
-    """The grid range without --v-min/--v-max: the recorded grid's, else the data's."""
+    """The grid range without --v-min/--v-max: the recorded grid's, else the measured inputs'.
+
+    The measured inputs of the whole run, whatever ``--curves`` selects, so
+    that models fitted on different selections share a grid and each can
+    predict the others.  Applied points beyond it (a FORC protocol's
+    saturation field) saturate the model, as they saturate the sample.
+    """
     if data.grid is not None:
         return data.grid.v_min, data.grid.v_max
-    return float(np.min(data.inputs)), float(np.max(data.inputs))
+    measured = data.inputs[data.measured_rows]
+    return float(np.min(measured)), float(np.max(measured))
 
 
 def grid_for(levels: int | None, v_min: float | None, v_max: float | None, data: Recording) -> Grid:
-    """The grid: the options, else the one the session records, else the data's min and max."""
+    """The grid: the options, else the one the session records, else the measured inputs' min and max."""
     recorded = data.grid
     if levels is None:
         if recorded is None:
@@ -85,6 +93,7 @@ def default_model_name(
     measurements: int | None = None,
     seed: int | None = None,
     thermal_term: bool = True,
+    curves: str = "all",
 ) -> str:
     """The name a model is stored under when ``--name`` is not given.
 
@@ -94,9 +103,10 @@ def default_model_name(
     those defaults, so that two fits get the same name exactly when they
     were asked for the same way: ``-L<levels>`` when the levels are not the
     run's own, ``-r<v_min>_<v_max>`` when the range is not the default one,
-    ``-M<M>-s<seed>`` for a random choice of rows and ``-nothermal``
-    without the thermal term.  E.g. ``ls``, ``cs_order_nn-M300-s0``,
-    ``ls-L20-nothermal``.
+    ``-M<M>-s<seed>`` for a random choice of rows, ``-nothermal``
+    without the thermal term and ``-even``/``-odd`` for a selection of
+    curves.  E.g. ``ls``, ``cs_order_nn-M300-s0``, ``ls-L20-nothermal``,
+    ``smooth_nn-L40-even``.
     """
     parts = [method]
     if levels is None or grid.levels != levels:
@@ -107,6 +117,8 @@ def default_model_name(
         parts.append(f"M{measurements}-s{seed}")
     if not thermal_term:
         parts.append("nothermal")
+    if curves != "all":
+        parts.append(curves)
     return "-".join(parts)
 
 
@@ -127,6 +139,7 @@ class IdentifyOptions:
     partial: bool = False
     #: The methods' ``solver`` setting ("fast" or "dense"), or None for their default.
     solver: str | None = None
+    curves: str = "all"
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,7 +151,8 @@ class IdentifyJob:
     the seed of their random choice (``None`` when all are used);
     ``store_as`` the model name in the session, or ``None`` when the model
     is not stored; ``partial`` describes a partial session (else ``None``);
-    ``label`` prefixes fitting errors (set in batches, to name the file).
+    ``label`` prefixes fitting errors (set in batches, to name the file);
+    ``curves`` ``(n,)`` the curve of every point (-1: none), when the run has curves.
     """
 
     path: Path
@@ -155,6 +169,8 @@ class IdentifyJob:
     partial: str | None = None
     label: str | None = None
     solver: str | None = None
+    curves: np.ndarray | None = None
+    curve_selection: str = "all"
 
 
 def _store_as(data: Recording, o: IdentifyOptions, grid: Grid) -> str | None:
@@ -173,7 +189,7 @@ def _store_as(data: Recording, o: IdentifyOptions, grid: Grid) -> str | None:
     if name is None:
         name = default_model_name(
             o.method, grid, levels=None if s.grid is None else s.grid.levels, v_range=default_range(data),
-            measurements=o.measurements, seed=o.seed, thermal_term=o.thermal_term,
+            measurements=o.measurements, seed=o.seed, thermal_term=o.thermal_term, curves=o.curves,
         )
     check_model_name(name)
     if name in s.models and not o.force:
@@ -189,9 +205,11 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
     if o.name is not None and data.session is None:
         raise UserError(f"--name stores the model in a session, but {path} is a CSV trace (rig import it first)")
     grid = grid_for(o.levels, o.v_min, o.v_max, data)
-    candidates = data.measured_rows
+    candidates = selected_rows(data, o.curves)
     if o.measurements is not None and not 1 <= o.measurements <= candidates.size:
         what = f"N={candidates.size}" if data.session is None else f"the {candidates.size} measured points"
+        if o.curves != "all":
+            what += f" on the {o.curves} curves"
         raise UserError(f"--measurements {o.measurements} must be between 1 and {what}")
     rows = measurement_rows(grid, data.inputs, o.measurements, o.seed, o.thermal_term, candidates)
     s = data.session
@@ -210,6 +228,8 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
         partial=partial_state(s) if s is not None and s.is_partial else None,
         label=label,
         solver=o.solver,
+        curves=data.curves,
+        curve_selection=o.curves,
     )
 
 
@@ -218,12 +238,16 @@ def fit_job(job: IdentifyJob) -> FitReport:
     try:
         report = fit_sequence(job.grid, job.inputs, job.outputs, job.method, rows=job.rows,
                               thermal_term=job.thermal_term,
-                              settings=None if job.solver is None else {"solver": job.solver})
+                              settings=None if job.solver is None else {"solver": job.solver}, curves=job.curves)
     except IdentifyError as exc:
         if job.label is None:
             raise
         raise type(exc)(f"{job.label}: {exc}") from None
-    model = dataclasses.replace(report.model, input_unit=job.input_unit, output_unit=job.output_unit)
+    metadata = dict(report.model.metadata)
+    if job.curve_selection != "all":
+        metadata["curves"] = job.curve_selection
+    model = dataclasses.replace(report.model, input_unit=job.input_unit, output_unit=job.output_unit,
+                                metadata=metadata)
     return dataclasses.replace(report, model=model)
 
 
@@ -238,6 +262,7 @@ def store_model(job: IdentifyJob, report: FitReport, force: bool) -> None:
 def result_dict(job: IdentifyJob, report: FitReport) -> dict:
     """The JSON object of one file: :func:`report_dict`, plus ``name`` when the model is stored."""
     result = report_dict(report, job.thermal_term, job.seed)
+    result["curves"] = job.curve_selection
     if job.store_as is not None:
         result["name"] = job.store_as
     return result

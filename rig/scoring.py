@@ -2,20 +2,29 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from identify import IdentifyError
-from identify.validation import ValidationReport, validate_model
+from identify.validation import ValidationReport, check_covers, validate_model
 from sessions import ModelRecord
 from sessions.recording import Recording
 
 from .errors import UserError
 
 
-def score_model(record: ModelRecord, data: Recording, *, fitted_on: bool = False) -> ValidationReport:
-    """Predict ``data`` with ``record``'s model and compare where measured.
+def score_model(
+    record: ModelRecord, data: Recording, *, fitted_on: bool = False, rows: np.ndarray | None = None
+) -> ValidationReport:
+    """Predict ``data`` with ``record``'s model and compare where measured (at ``rows``, default all).
 
-    The run must have the model's units and stay on its grid (unless
-    ``fitted_on``: the run the model was identified from, whose inputs the
-    fit saw, saturated or not).  Problems are one-line :class:`UserError`.
+    Every applied point is predicted, from negative saturation, so each
+    compared point has the memory state of its full input history.  The
+    run must have the model's units and its compared points must lie on
+    the model's grid (unless ``fitted_on``: the run the model was
+    identified from, whose inputs the fit saw, saturated or not); applied
+    points that are not compared may go beyond it -- a FORC protocol's
+    saturation field -- where the model saturates as the sample does.
+    Problems are one-line :class:`UserError`.
     """
     model = record.model
     if (model.input_unit, model.output_unit) != (data.input_unit, data.output_unit):
@@ -23,7 +32,15 @@ def score_model(record: ModelRecord, data: Recording, *, fitted_on: bool = False
             f"{data.path}: records {data.input_unit} in and {data.output_unit} out, but model "
             f"{record.name!r} maps {model.input_unit} to {model.output_unit}"
         )
+    outputs = data.outputs
+    if rows is not None:
+        outputs = np.full(data.outputs.shape, np.nan)
+        outputs[rows] = data.outputs[rows]
     try:
-        return validate_model(model, data.inputs, data.outputs, check_range=not fitted_on)
+        if not fitted_on:
+            compared = np.flatnonzero(np.isfinite(outputs))
+            if compared.size:
+                check_covers(model.grid, data.inputs[compared], model.input_unit)
+        return validate_model(model, data.inputs, outputs, check_range=False)
     except IdentifyError as exc:
         raise UserError(f"{data.path}: model {record.name!r}: {exc}") from None

@@ -24,7 +24,7 @@ from .csvtrace import Trace
 from .errors import DataFileError
 from .lock import held_by_other
 from .reader import Session
-from .records import ExcitationRecord
+from .records import CalibrationRecord, ExcitationRecord, Quantities
 from .rewrite import fsync_directory
 from .schema import SAMPLE_DTYPE, SampleFlag
 from .writer import SessionWriter
@@ -91,18 +91,10 @@ def import_trace(
     notes: str = "",
     force: bool = False,
 ) -> None:
-    """Write ``trace`` as a complete session at ``out``.
-
-    The session is built in a hidden file beside ``out`` and renamed over
-    it only when complete, so an existing ``out`` (replaced only with
-    ``force``) is never left half-written.
-    """
+    """Write ``trace`` as a complete session at ``out`` (see :func:`write_new_session`)."""
     out = Path(out)
     check_replaceable(out, force)
-    extra = {}
-    if source is not None:
-        src = Path(source)
-        extra = {"source": src.name, "source_sha256": sha256_of(src)}
+    extra = source_record(source)
     excitation = excitation_of_trace(trace, levels, v_min, v_max, extra)
     rows = np.zeros(len(trace), SAMPLE_DTYPE)
     rows["t_s"] = trace.t_s
@@ -112,13 +104,46 @@ def import_trace(
     rows["dwell_s"] = np.nan
     rows["measured"] = True
     rows["flags"] = SampleFlag.IMPORTED
+    write_new_session(out, excitation, rows, operator=operator, notes=notes, force=force,
+                      message=f"from {extra.get('source', 'a CSV trace')}")
+
+
+def source_record(source: str | os.PathLike | None) -> dict:
+    """``{"source": name, "source_sha256": digest}`` of an imported file (empty without one)."""
+    if source is None:
+        return {}
+    src = Path(source)
+    return {"source": src.name, "source_sha256": sha256_of(src)}
+
+
+def write_new_session(
+    out: Path,
+    excitation: ExcitationRecord,
+    rows: np.ndarray,
+    *,
+    quantities: Quantities | None = None,
+    calibration: CalibrationRecord | None = None,
+    operator: str = "",
+    notes: str = "",
+    force: bool = False,
+    message: str = "",
+) -> None:
+    """Write a complete session (every row at once) at ``out``, status ``complete``.
+
+    The session is built in a hidden file beside ``out`` and renamed over
+    it only when complete, so an existing ``out`` (replaced only with
+    ``force``, never while another process writes it) is never left
+    half-written.
+    """
+    check_replaceable(out, force)
     tmp = out.with_name(f".{out.name}.{os.getpid()}.import")
     tmp.unlink(missing_ok=True)
     try:
-        writer = SessionWriter.create(tmp, excitation, operator=operator, notes=notes, fsync_interval_s=None)
+        writer = SessionWriter.create(tmp, excitation, quantities=quantities, calibration=calibration,
+                                      operator=operator, notes=notes, fsync_interval_s=None)
         with writer:
             writer.extend(rows)
-            writer.log("imported", f"from {extra.get('source', 'a CSV trace')}")
+            writer.log("imported", message)
         check_replaceable(out, force)
         os.replace(tmp, out)
         fsync_directory(out.parent)

@@ -8,6 +8,7 @@ measured deflection (um).  Every value must be a finite number.
 from __future__ import annotations
 
 import csv
+import io
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DataFileError
+from .textfiles import finite_number, read_bytes
 
 HEADER = ("t_s", "v_V", "deflection_um")
 
@@ -38,17 +40,12 @@ class Trace:
 
 def read_csv_rows(path: Path) -> list[list[str]]:
     """Every row of a UTF-8 CSV file as strings; :class:`DataFileError` saying why it cannot be read."""
+    raw = read_bytes(path, "a CSV file")
     try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            return list(csv.reader(fh))
-    except FileNotFoundError:
-        raise DataFileError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise DataFileError(f"{path}: is a directory, not a CSV file") from None
+        text = raw.decode("utf-8")
     except UnicodeDecodeError:
         raise DataFileError(f"{path}: not a text (UTF-8) CSV file") from None
-    except OSError as exc:
-        raise DataFileError(f"{path}: cannot read ({exc.strerror})") from None
+    return list(csv.reader(io.StringIO(text, newline="")))
 
 
 def read_trace(path: str | os.PathLike) -> Trace:
@@ -72,17 +69,7 @@ def read_trace(path: str | os.PathLike) -> Trace:
         if len(row) != 3:
             raise DataFileError(f"{path}: line {lineno}: expected 3 values, got {len(row)}")
         for col, cell in enumerate(row):
-            try:
-                x = float(cell)
-            except ValueError:
-                raise DataFileError(
-                    f"{path}: line {lineno}: {HEADER[col]} value {cell.strip()!r} is not a number"
-                ) from None
-            if not np.isfinite(x):
-                raise DataFileError(
-                    f"{path}: line {lineno}: {HEADER[col]} value {cell.strip()!r} is not finite"
-                )
-            values[count, col] = x
+            values[count, col] = finite_number(cell.strip(), f"{path}: line {lineno}", HEADER[col])
         count += 1
     if count == 0:
         raise DataFileError(f"{path}: no data rows after the header")

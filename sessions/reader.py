@@ -24,8 +24,8 @@ from identify import Grid
 from .errors import DataFileError
 from .lock import held_by_other
 from .models import ModelRecord, read_model_group
-from .records import Event, ExcitationRecord, Quantities
-from .schema import EVENT_DTYPE, FORMAT_NAME, SAMPLE_DTYPE, SCHEMA_VERSION, Status
+from .records import CalibrationRecord, Event, ExcitationRecord, Quantities
+from .schema import CALIBRATION_DTYPE, EVENT_DTYPE, FORMAT_NAME, SAMPLE_DTYPE, SCHEMA_VERSION, Status
 from .swmr import open_swmr_read
 
 
@@ -51,6 +51,7 @@ class Session:
     samples: np.ndarray
     events: tuple[Event, ...]
     models: dict[str, ModelRecord]
+    calibration: CalibrationRecord | None = None
 
     # ------------------------------------------------------------ status
     @property
@@ -108,6 +109,17 @@ class Session:
     def grid(self) -> Grid | None:
         """The excitation's grid, if recorded."""
         return self.excitation.grid
+
+    @property
+    def curves(self) -> np.ndarray | None:
+        """The curve of every recorded sample ``(n,)`` (-1: none), or ``None`` without curves."""
+        c = self.excitation.curves
+        return None if c is None else c[: self.n_samples]
+
+    @property
+    def drift_correction(self) -> dict[str, Any] | None:
+        """How the outputs were corrected for drift (``None``: as measured)."""
+        return None if self.calibration is None else self.calibration.drift_correction
 
 
 # ---------------------------------------------------------------- helpers
@@ -199,7 +211,18 @@ def read_excitation(group: h5py.Group) -> ExcitationRecord:
         seed=optional("seed", int),
         dwell=_json_attr(a, "dwell") if "dwell" in a else {},
         extra=_json_attr(a, "extra") if "extra" in a else {},
+        curves=_dataset(group, "curve")[()] if "curve" in group else None,
     )
+
+
+def read_calibration(f: h5py.File) -> CalibrationRecord | None:
+    """``/calibration``, or ``None`` when the session has none."""
+    if "calibration" not in f:
+        return None
+    d = _dataset(f, "calibration", CALIBRATION_DTYPE)
+    rows = d[()]
+    drift = _json_attr(d.attrs, "drift_correction") if "drift_correction" in d.attrs else None
+    return CalibrationRecord(*(rows[name].copy() for name in CALIBRATION_DTYPE.names), drift_correction=drift)
 
 
 def open_hdf5(path: str | os.PathLike) -> h5py.File:
@@ -276,6 +299,7 @@ def _read(path: Path, f: h5py.File) -> Session:
         samples=samples,
         events=read_events(_dataset(f, "log", EVENT_DTYPE)),
         models={name: read_model_group(models[name]) for name in models},
+        calibration=read_calibration(f),
     )
 
 

@@ -24,6 +24,8 @@ class Recording:
     ``grid`` is the grid the excitation was built on, when recorded.
     ``session`` is the session read, or ``None`` for a CSV trace.
     ``t_s`` ``(n,)`` is the time of every point (s since the start).
+    ``curves`` ``(n,)`` numbers the curve of every point (-1: none) when
+    the run is made of curves (an imported FORC measurement), else ``None``.
     """
 
     path: Path
@@ -34,6 +36,7 @@ class Recording:
     output_unit: str
     session: Session | None = None
     t_s: np.ndarray | None = None
+    curves: np.ndarray | None = None
 
     @property
     def measured_rows(self) -> np.ndarray:
@@ -53,4 +56,4 @@ def load_recording(path: str | os.PathLike) -> Recording:
         raise DataFileError(f"{path}: none of the session's {session.n_samples} points was measured")
     q = session.quantities
     return Recording(path, session.inputs, session.outputs, session.grid, q.input_unit, q.output_unit, session,
-                     session.t_s)
+                     session.t_s, session.curves)

@@ -24,6 +24,9 @@ class ExcitationRecord:
     trace without ``--levels``).  ``dwell`` describes the dwell policy
     (``{"policy": "fixed", "seconds": 5}``, ...); ``extra`` holds anything
     else the producer wants kept (a source file, a random-input length).
+    ``curves`` ``(N,)`` (optional) numbers the curve each point belongs to,
+    ``-1`` for points on none (a FORC protocol's saturation and calibration
+    points); ``None`` when the excitation is not made of curves.
     """
 
     kind: str
@@ -36,6 +39,7 @@ class ExcitationRecord:
     seed: int | None = None
     dwell: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
+    curves: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         v = np.array(self.inputs, dtype=float).reshape(-1)
@@ -48,6 +52,17 @@ class ExcitationRecord:
         m.flags.writeable = False
         object.__setattr__(self, "inputs", v)
         object.__setattr__(self, "measure", m)
+        if self.curves is not None:
+            c = np.array(self.curves).reshape(-1)
+            if c.shape != v.shape:
+                raise DataFileError(f"curve index has {c.size} entries for {v.size} inputs")
+            if c.size and not np.issubdtype(c.dtype, np.integer):
+                raise DataFileError("curve index must be whole numbers")
+            c = c.astype(np.int64)
+            if np.any(c < -1):
+                raise DataFileError("curve index must be >= -1 (-1: on no curve)")
+            c.flags.writeable = False
+            object.__setattr__(self, "curves", c)
         if self.levels is not None:
             grid = Grid(self.levels, self.v_min, self.v_max)  # validates
             object.__setattr__(self, "levels", grid.levels)
@@ -81,6 +96,33 @@ class ExcitationRecord:
     def grid(self) -> Grid | None:
         """The grid of the excitation, or ``None`` when not recorded."""
         return None if self.levels is None else Grid(self.levels, self.v_min, self.v_max)
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationRecord:
+    """Drift-monitor measurements: the output measured again and again at one fixed input.
+
+    Arrays ``(K,)``: ``t_s`` (s since the start), ``input`` and ``output``
+    (as measured, never corrected), ``curve`` (the curve each precedes) and
+    ``row`` (the ``/samples`` row of the applied point it was measured at).
+    ``drift_correction`` describes the correction applied to the session's
+    outputs from these points (``None``: the outputs are as measured).
+    """
+
+    t_s: np.ndarray
+    input: np.ndarray
+    output: np.ndarray
+    curve: np.ndarray
+    row: np.ndarray
+    drift_correction: dict[str, Any] | None = None
+
+    def __post_init__(self) -> None:
+        n = {np.asarray(getattr(self, k)).size for k in ("t_s", "input", "output", "curve", "row")}
+        if len(n) != 1:
+            raise DataFileError("calibration columns have different lengths")
+
+    def __len__(self) -> int:
+        return int(np.asarray(self.t_s).size)
 
 
 @dataclass(frozen=True)

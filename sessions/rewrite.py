@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Callable
 
 import h5py
+import numpy as np
 
 from .errors import DataFileError
 from .lock import WriterLock
@@ -106,7 +107,11 @@ def rewrite_session(
         except OSError as exc:
             raise DataFileError(f"{path}: could not write the new copy ({exc}); the session was not modified") from None
         after = read_session(tmp)
-        if after.samples.tobytes() != before.samples.tobytes() or after.events[: len(before.events)] != before.events:
+        if (
+            after.samples.tobytes() != before.samples.tobytes()
+            or after.events[: len(before.events)] != before.events
+            or _calibration_bytes(after) != _calibration_bytes(before)
+        ):
             raise DataFileError(f"{path}: the rewritten copy lost samples or events; the session was not modified")
         fsync_file(tmp)
         if keep_lock:
@@ -123,6 +128,11 @@ def rewrite_session(
     if new_lock is not None:
         new_lock.path = path
     return new_lock
+
+
+def _calibration_bytes(session: Session) -> bytes | None:
+    c = session.calibration
+    return None if c is None else b"".join(np.asarray(getattr(c, k)).tobytes() for k in ("t_s", "input", "output"))
 
 
 def add_model(path: str | os.PathLike, record: ModelRecord, *, force: bool = False) -> None:

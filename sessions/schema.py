@@ -17,6 +17,8 @@ In short::
                                dwell (JSON), extra (JSON)
     /excitation/inputs  (N,) the planned input sequence
     /excitation/measure (N,) bool, which points are planned to be measured
+    /excitation/curve   (N,) int32, optional: the curve each point belongs to (-1: none)
+    /calibration        optional table of drift-monitor measurements (CALIBRATION_DTYPE)
     /models/<name>      identified models (see :mod:`sessions.models`)
 
 The status lives in ``/log`` rather than in an attribute because an HDF5
@@ -65,6 +67,18 @@ SAMPLE_DTYPE = np.dtype(
 #: reached the file before its data did.
 SAMPLE_FILL = np.array((-1, np.nan, np.nan, np.nan, np.nan, np.nan, False, False, 0), dtype=SAMPLE_DTYPE)
 
+#: One row of ``/calibration``: a measurement at a fixed reference input taken
+#: to monitor drift (a FORC protocol's calibration point before each curve).
+CALIBRATION_DTYPE = np.dtype(
+    [
+        ("t_s", "<f8"),  # time since the start of the run (s)
+        ("input", "<f8"),  # the input at which it was measured (input_unit)
+        ("output", "<f8"),  # the output as measured, never corrected (output_unit)
+        ("curve", "<i8"),  # the curve it precedes (-1: none)
+        ("row", "<i8"),  # the /samples row of the applied point it was measured at (-1: none)
+    ]
+)
+
 #: Length in bytes of the fixed-size text fields of ``/log`` (UTF-8).
 STATUS_BYTES, EVENT_BYTES, MESSAGE_BYTES = 16, 32, 480
 
@@ -105,6 +119,8 @@ class SampleFlag(enum.IntFlag):
     AFTER_RESUME = 16  # first point after a resume (memory restored by replay)
     READ_RETRIED = 32  # a reading failed and was retried
     IMPORTED = 64  # imported from a file that did not record dwell or settling
+    CALIBRATION = 128  # the calibration field of a FORC protocol; its measurement is in /calibration
+    SATURATION = 256  # the input is held at the saturation field (a FORC protocol's HSat)
 
 
 #: Default input and output quantities (the VO2 rig).

@@ -37,12 +37,13 @@ from .guard import deferred_interrupt
 from .lock import WriterLock
 from .log import append_event
 from .reader import sample_columns
-from .records import ExcitationRecord, Quantities
+from .records import CalibrationRecord, ExcitationRecord, Quantities
 from .rewrite import rewrite_session
 from .schema import (
     EVENT_DTYPE,
     FORMAT_NAME,
     LIBVER,
+    CALIBRATION_DTYPE,
     SAMPLE_CHUNK,
     SAMPLE_DTYPE,
     SAMPLE_FILL,
@@ -65,6 +66,7 @@ def write_layout(
     notes: str,
     rig_config: dict[str, Any] | None,
     driver: dict[str, Any] | None,
+    calibration: CalibrationRecord | None = None,
 ) -> None:
     """Everything of a new session but its samples and events (see ``docs/sessions.md``)."""
     a = f.attrs
@@ -91,11 +93,27 @@ def write_layout(
     g.attrs["extra"] = _json(excitation.extra)
     g.create_dataset("inputs", data=excitation.inputs)
     g.create_dataset("measure", data=excitation.measure)
+    if excitation.curves is not None:
+        g.create_dataset("curve", data=excitation.curves.astype(np.int32))
+    if calibration is not None:
+        write_calibration(f, calibration)
     f.create_dataset(
         "samples", shape=(0,), maxshape=(None,), dtype=SAMPLE_DTYPE, chunks=(SAMPLE_CHUNK,),
         fillvalue=SAMPLE_FILL, fletcher32=True,
     )
     f.create_dataset("log", shape=(0,), maxshape=(None,), dtype=EVENT_DTYPE, chunks=(16,))
+
+
+def write_calibration(f: h5py.File, calibration: CalibrationRecord) -> None:
+    """The ``/calibration`` table (resizable, so that a live writer could grow it too)."""
+    rows = np.zeros(len(calibration), CALIBRATION_DTYPE)
+    for name in CALIBRATION_DTYPE.names:
+        rows[name] = getattr(calibration, name)
+    d = f.create_dataset(
+        "calibration", data=rows, maxshape=(None,), chunks=(max(1, min(len(rows), 1024)),), fletcher32=True
+    )
+    if calibration.drift_correction is not None:
+        d.attrs["drift_correction"] = _json(calibration.drift_correction)
 
 
 class SessionWriter:
@@ -134,11 +152,13 @@ class SessionWriter:
         notes: str = "",
         rig_config: dict[str, Any] | None = None,
         driver: dict[str, Any] | None = None,
+        calibration: CalibrationRecord | None = None,
         fsync_interval_s: float | None = 1.0,
     ) -> "SessionWriter":
         """Create a new session at ``path`` (never overwrites) with status ``running``.
 
-        ``rig_config`` and ``driver`` are stored as JSON; ``fsync_interval_s``
+        ``rig_config`` and ``driver`` are stored as JSON; ``calibration``
+        (drift-monitor points, e.g. of an imported FORC file) as ``/calibration``; ``fsync_interval_s``
         bounds how often the file is synced to disk (0: after every sample,
         ``None``: only on close).
         """
@@ -158,7 +178,8 @@ class SessionWriter:
             path.unlink(missing_ok=True)
             raise
         try:
-            write_layout(f, excitation, quantities or Quantities(), operator, notes, rig_config, driver)
+            write_layout(f, excitation, quantities or Quantities(), operator, notes, rig_config, driver,
+                         calibration)
             writer = cls(path, f, lock, fsync_interval_s)
             writer.log("created", f"{excitation.kind} excitation of {excitation.n_points} points")
         except BaseException:

@@ -4,7 +4,8 @@ Residuals are ``model - measured`` (um), as :mod:`identify.validation`.
 They are binned by six quantities (:data:`BY`): the input level, the
 branch (heating, cooling, first step after a reversal), the time since the
 last reversal, the signed size of the last step, the predicted output and
-the session time.  Numeric quantities get quantile bins (equal counts), so
+the session time; runs made of curves (FORC) also by the reversal input of
+every point (the curve's reversal field).  Numeric quantities get quantile bins (equal counts), so
 every bin has enough points to say something.
 
 A bin *stands out beyond noise* when its mean or its rms is larger than
@@ -32,6 +33,7 @@ BY = {
     "last_step_V": "V",
     "predicted_um": "um",
     "session_time_s": "s",
+    "reversal_V": "V",
 }
 #: Quantile bins per numeric quantity.
 N_BINS = 8
@@ -87,12 +89,16 @@ def _groups(by: str, x: np.ndarray) -> list[tuple[float, float, str, np.ndarray]
 
 
 def bin_residuals(
-    features: dict[str, np.ndarray], residual: np.ndarray, floor: np.ndarray | None
+    features: dict[str, np.ndarray], residual: np.ndarray, floor: np.ndarray | None,
+    units: dict[str, str] | None = None,
 ) -> list[Binning]:
     """Bin ``residual`` ``(m,)`` by each quantity of :data:`BY` in ``features`` (each ``(m,)``).
 
     ``floor`` ``(m,)``: the noise floor at every point (um), or None.
+    ``units`` renames the units of :data:`BY` for the runs at hand
+    (``{"V": "T", "um": "A m^2"}`` for a FORC measurement).
     """
+    units = units or {}
     r = np.asarray(residual, dtype=float)
     grouped = [(by, _groups(by, np.asarray(features[by], dtype=float))) for by in BY if by in features]
     tests = sum(1 for _, groups in grouped for g in groups if g[3].sum() >= MIN_TESTED)
@@ -118,5 +124,5 @@ def bin_residuals(
                     t = abs(mean) / (sd / np.sqrt(n)) if sd > 0 else 0.0
                     significant = bool(t > stats.t.isf(ALPHA / (2 * max(tests, 1)), n - 1))
             bins.append(Bin(lo, hi, label, mean, rms, n, significant))
-        out.append(Binning(by, BY[by], tuple(bins)))
+        out.append(Binning(by, units.get(BY[by], BY[by]), tuple(bins)))
     return out

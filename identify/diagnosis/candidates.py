@@ -134,24 +134,69 @@ class Candidate(ABC):
         """Largest plausible ``|coefficient|`` by label, where physics bounds it (for visibility)."""
         return {}
 
+    def applicable(self, ctx: Context) -> str | None:
+        """Why the effect cannot act on these runs at all (None: it can).  A candidate that needs
+        what the runs do not record (dwell times, time stamps, a heater voltage as the input) is
+        reported as not applicable instead of being scored."""
+        return None
+
+
+def _needs_heater(ctx: Context) -> str | None:
+    """Not applicable unless the input is a heater voltage (V): the effect is heater physics."""
+    units = {r.input_unit for r in ctx.runs}
+    if units != {"V"}:
+        return (f"it is heater physics (the input as a heater voltage), and these runs' input is in "
+                f"{', '.join(sorted(units))}")
+    return None
+
+
+def _needs_time(ctx: Context) -> str | None:
+    """Not applicable when a run's time stamps carry no information."""
+    untimed = [r.name for r in ctx.runs if not r.timed]
+    if untimed:
+        return f"it acts over time, and {', '.join(untimed)} record(s) no time (all time stamps equal)"
+    return None
+
 
 # ---------------------------------------------------------------- helpers
+def drift_knots(run: Run) -> np.ndarray | None:
+    """The knots of :func:`drift_basis` (None when the run's measured points share one time)."""
+    tm = run.t_s[run.rows]
+    lo, hi = float(tm.min()), float(tm.max())
+    k = DRIFT_SPLINE_DEGREE
+    if hi <= lo:
+        return None
+    inner = np.linspace(lo, hi, int((hi - lo) // DRIFT_KNOT_S) + 2)
+    return np.concatenate([[lo] * k, inner, [hi] * k])
+
+
 def drift_basis(run: Run) -> np.ndarray:
     """Cubic B-splines of session time with knots every :data:`DRIFT_KNOT_S`, ``(n, d)``.
 
     The knots span the run's measured points (times outside are clamped to
     them); the functions add up to one, so the basis holds a constant offset.
     """
+    knots = drift_knots(run)
+    if knots is None:
+        return np.ones((run.n, 1))
+    return _spline_at(knots, run.t_s)
+
+
+def _spline_at(knots: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     from scipy.interpolate import BSpline
 
-    tm = run.t_s[run.rows]
-    lo, hi = float(tm.min()), float(tm.max())
-    k = DRIFT_SPLINE_DEGREE
-    if hi <= lo:
-        return np.ones((run.n, 1))
-    inner = np.linspace(lo, hi, int((hi - lo) // DRIFT_KNOT_S) + 2)
-    knots = np.concatenate([[lo] * k, inner, [hi] * k])
-    return BSpline.design_matrix(np.clip(run.t_s, lo, hi), knots, k).toarray()
+    return BSpline.design_matrix(np.clip(t_s, knots[0], knots[-1]), knots, DRIFT_SPLINE_DEGREE).toarray()
+
+
+def drift_at(run_params: dict[str, Any], t_s: np.ndarray) -> np.ndarray:
+    """A fitted drift (one run's entry of a drift candidate's ``params["runs"]``) at times ``t_s``
+    ``(k,)`` (s), in the candidate's unit; constant beyond the run's measured times."""
+    coef = np.asarray(run_params["coefficients"], dtype=float)
+    knots = run_params.get("knots_s")
+    t = np.asarray(t_s, dtype=float)
+    if knots is None:
+        return np.full(t.shape, coef[0])
+    return _spline_at(np.asarray(knots, dtype=float), t) @ coef
 
 
 def _per_run(ctx: Context, block: list[np.ndarray], what: str, smoothing: float = 0.0) -> Columns:
@@ -182,10 +227,13 @@ def _drift_params(ctx: Context, cols: Columns, coef: dict[str, float], unit: str
     for i, run in enumerate(ctx.runs):
         mine = np.array([r == i for r in cols.run_of])
         drift = (drift_basis(run) @ beta[mine])[run.rows]
+        knots = drift_knots(run)
         out[run.name] = {
             f"rms_{unit}": float(np.sqrt(np.mean((drift - drift.mean()) ** 2))),
             f"range_{unit}": float(np.ptp(drift)),
             f"change_{unit}": float(drift[-1] - drift[0]),
+            "knots_s": None if knots is None else [float(x) for x in knots],
+            "coefficients": [float(x) for x in beta[mine]],
         }
     return {"runs": out}
 
@@ -242,6 +290,14 @@ class ThermalLagCandidate(Candidate):
     def bounds(self) -> dict[str, float]:
         return {"fraction": MAX_LAG_FRACTION}
 
+    def applicable(self, ctx: Context) -> str | None:
+        heater = _needs_heater(ctx)
+        if heater is not None:
+            return heater
+        if not any(r.has_dwell for r in ctx.runs):
+            return "no run records its dwell (set-point to readings), so there is nothing for a lag to act over"
+        return None
+
 
 class _DriftCandidate(Candidate):
     """A per-run drift: a penalised cubic spline of session time per run (the penalty's weight is
@@ -255,6 +311,9 @@ class _DriftCandidate(Candidate):
     def params(self, ctx, setting, coef):
         cols = _per_run(ctx, [drift_basis(r) for r in ctx.runs], "spline")
         return _drift_params(ctx, cols, coef, self.unit)
+
+    def applicable(self, ctx: Context) -> str | None:
+        return _needs_time(ctx)
 
 
 class BaselineDriftCandidate(_DriftCandidate):
@@ -296,6 +355,9 @@ class AmbientDriftCandidate(_DriftCandidate):
         v_low = 0.05 * (base.grid.v_max - base.grid.v_min)
         return j / (2.0 * np.maximum(np.abs(run.inputs), v_low))
 
+    def applicable(self, ctx: Context) -> str | None:
+        return _needs_heater(ctx) or _needs_time(ctx)
+
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         blocks = [self.sensitivity(ctx, r)[:, None] * drift_basis(r) for r in ctx.runs]
         return _per_run(ctx, blocks, "spline", setting["smoothing"])
@@ -306,6 +368,9 @@ class JoulePowerCandidate(Candidate):
 
     name = "joule_power"
     summary = "the thermal-expansion term follows heater power (v^2), not voltage"
+
+    def applicable(self, ctx: Context) -> str | None:
+        return _needs_heater(ctx)
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         return Columns(tuple((r.inputs**2)[:, None] for r in ctx.runs), ("um_per_V2",), (False,), (-1,))
@@ -327,6 +392,9 @@ class CreepCandidate(Candidate):
 
     def settings_grid(self) -> list[dict[str, float]]:
         return [{"sign": 1.0}, {"sign": -1.0}]
+
+    def applicable(self, ctx: Context) -> str | None:
+        return _needs_time(ctx)
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         taus = np.asarray(CREEP_TIME_CONSTANTS_S)

@@ -126,6 +126,8 @@ class Diagnosis:
     where_after: list[Binning] | None
     warnings: list[str] = field(default_factory=list)
     evidence: Evidence | None = None
+    input_unit: str = "V"
+    output_unit: str = "um"
 
     @property
     def chosen(self) -> str | None:
@@ -151,9 +153,10 @@ def _scored_rows(grid: Grid, run: Run, warnings: list[str]) -> np.ndarray:
     inside = (v >= grid.v_min - tol) & (v <= grid.v_max + tol)
     if not inside.all():
         out = int((~inside).sum())
+        u = run.input_unit
         warnings.append(
             f"{run.name}: {out} of {rows.size} measured points lie outside the identification range "
-            f"[{grid.v_min:g}, {grid.v_max:g}] V (from {v.min():g} to {v.max():g} V); they are not scored"
+            f"[{grid.v_min:g}, {grid.v_max:g}] {u} (from {v.min():g} to {v.max():g} {u}); they are not scored"
         )
     return rows[inside]
 
@@ -167,6 +170,7 @@ def _features(run: Run, rows: np.ndarray, predicted: np.ndarray) -> dict[str, np
         "last_step_V": h.last_step_V[rows],
         "predicted_um": predicted[rows],
         "session_time_s": run.t_s[rows],
+        **({"reversal_V": h.reversal_V[rows]} if run.by_curves else {}),
     }
 
 
@@ -224,7 +228,7 @@ def _assessable(cand: Candidate, cols: Columns, scored: _Scored, n_fit: int) -> 
 
 
 def _visible(cand: Candidate, designs: list[np.ndarray], raws: list[np.ndarray], cols: Columns,
-             floor_rms: float | None) -> tuple[bool, str]:
+             floor_rms: float | None, unit: str = "um") -> tuple[bool, str]:
     """Whether the input design can show ``cand`` at all, and a note when it cannot."""
     bounds = cand.bounds()
     traced = [
@@ -241,7 +245,7 @@ def _visible(cand: Candidate, designs: list[np.ndarray], raws: list[np.ndarray],
     largest = max(size * bounds[label] for label, size in traced)
     if largest < VISIBLE * floor_rms:
         return False, (f"cannot be seen with this input design: at its largest plausible size it would "
-                       f"change the check outputs by {largest:.2g} um rms, under half the noise floor")
+                       f"change the check outputs by {largest:.2g} {unit} rms, under half the noise floor")
     return True, ""
 
 
@@ -252,8 +256,13 @@ def diagnose(
     grid: Grid,
     settings: DiagnosisSettings | None = None,
     candidates: list[Candidate] | None = None,
+    monitors: list[np.ndarray] | None = None,
 ) -> Diagnosis:
-    """Diagnose the gap between equation (22) fitted on ``fit_runs`` and the ``check_runs``."""
+    """Diagnose the gap between equation (22) fitted on ``fit_runs`` and the ``check_runs``.
+
+    ``monitors``: drift-monitor outputs (um, each ``(k,)`` in time order, repeated measurements of one
+    memory state, e.g. a FORC file's calibration points), a further estimate of the measurement noise.
+    """
     settings = settings or DiagnosisSettings()
     fit_runs, check_runs = tuple(fit_runs), tuple(check_runs)
     if not check_runs:
@@ -261,6 +270,12 @@ def diagnose(
     names = [r.name for r in fit_runs + check_runs]
     if len(set(names)) != len(names):
         raise IdentifyError(f"run names must be distinct, got {', '.join(names)}")
+    units = {(r.input_unit, r.output_unit) for r in fit_runs + check_runs}
+    if len(units) != 1:
+        raise IdentifyError("the runs record different units: "
+                            + ", ".join(f"{r.name} {r.input_unit} in, {r.output_unit} out" for r in fit_runs + check_runs))
+    input_unit, output_unit = units.pop()
+    unit_names = {"V": input_unit, "um": output_unit}
     cands = candidates if candidates is not None else library(settings.effects)
     warnings: list[str] = []
     base = fit_base(grid, fit_runs, settings.method, thermal_term=settings.thermal_term,
@@ -305,7 +320,7 @@ def diagnose(
         reference = gap
     carry_rest = scored.carry - recal @ (recal.T @ scored.carry)
 
-    noise = estimate_noise(base, list(used))
+    noise = estimate_noise(base, list(used), monitors)
     floor = floor_per_point(noise, base, [(run, r.size) for run, r in zip(used, rows)], carry_rest,
                             extra=k_recal / max(gap.size, 1)) if noise is not None else None
     floor_rms = _rms(floor) if floor is not None else None
@@ -325,6 +340,10 @@ def diagnose(
     ind = onehot(blocks)
     results, not_assessed = [], []
     for cand in cands:
+        why_not = cand.applicable(ctx)
+        if why_not is not None:
+            not_assessed.append((cand.name, f"not applicable: {why_not}"))
+            continue
         grid_settings = cand.settings_grid()
         cols_list = [cand.columns(ctx, s) for s in grid_settings]
         reason = _assessable(cand, cols_list[0], scored, n_fit)
@@ -332,7 +351,8 @@ def diagnose(
             not_assessed.append((cand.name, reason))
             continue
         parts = [_effective(ctx, scored, c) for c in cols_list]
-        visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list[0], floor_rms)
+        visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list[0], floor_rms,
+                                output_unit)
         designs = [_with_reference(e, a, c, recal) for (e, a, _), c in zip(parts, cols_list)]
         cv = cross_validate(gap, blocks, designs, base.residual, fit_weight)
         after = gap - cv.prediction
@@ -347,7 +367,7 @@ def diagnose(
     shrink_boot = 1.0 - np.sqrt(boot[:, 1:] / boot[:, :1])
 
     floor_sq = float(np.mean(floor**2)) if floor is not None else None
-    where = bin_residuals(feats, -reference, floor)
+    where = bin_residuals(feats, -reference, floor, unit_names)
     structure = any(b.significant for w in where for b in w.bins)
     evidence = Evidence(
         names=tuple(c.name for c, *_ in results),
@@ -408,8 +428,10 @@ def diagnose(
         where_after=None,
         warnings=warnings,
         evidence=evidence,
+        input_unit=input_unit,
+        output_unit=output_unit,
     )
     chosen = result.chosen
     if chosen is not None and chosen in residual_after:
-        object.__setattr__(result, "where_after", bin_residuals(feats, residual_after[chosen], floor))
+        object.__setattr__(result, "where_after", bin_residuals(feats, residual_after[chosen], floor, unit_names))
     return result

@@ -21,6 +21,10 @@ The measurement noise ``sigma`` is estimated, in this order of preference:
    ``sigma^2 = mean((y_k - y_{k-1})^2) / 2``.  Effects that continue
    while the heater is held (creep, a slow lag, drift) add to it, so this
    is an upper bound.
+   ``drift_monitor`` is the same estimate from a drift monitor's
+   calibration points (a FORC measurement's: the same field after the same
+   saturation before every curve, so the same memory state), successive
+   ones differenced; slow drift between them adds to it (an upper bound).
 3. ``fit_residual`` -- the base fit's residual on the identification runs
    over its residual degrees of freedom (NNLS leaves cells at zero, so it
    is not interpolating): ``RSS / (m - rank X_F)``.  Effects the base
@@ -130,6 +134,17 @@ def from_repeated_visits(runs: list[Run]) -> NoiseEstimate | None:
                          f"{d.size} repeated set-points (an upper bound if the output moves while held)")
 
 
+def from_monitor(monitors: list[np.ndarray]) -> NoiseEstimate | None:
+    """Pooled estimate from drift monitors: each ``(k,)`` the outputs (um) of repeated measurements of
+    one memory state, in time order."""
+    d = np.concatenate([np.diff(np.asarray(m, dtype=float)) for m in monitors]) if monitors else np.zeros(0)
+    d = d[np.isfinite(d)]
+    if d.size < MIN_PAIRS:
+        return None
+    return NoiseEstimate(float(np.sqrt(np.mean(d**2) / 2.0)), None, "drift_monitor", float(d.size),
+                         f"{d.size} successive calibration points (an upper bound: drift between them adds)")
+
+
 def from_fit_residual(base: BaseFit) -> NoiseEstimate | None:
     """Estimate from the base fit's residual on the identification runs."""
     if base.dof < MIN_FIT_DOF:
@@ -166,13 +181,21 @@ def combine(a: NoiseEstimate, b: NoiseEstimate) -> NoiseEstimate:
                          f"significantly more (an effect inflates it), so it is not used")
 
 
-def estimate_noise(base: BaseFit, check_runs: list[Run]) -> NoiseEstimate | None:
-    """The best available estimate (see the module doc), or None."""
+def estimate_noise(base: BaseFit, check_runs: list[Run],
+                   monitors: list[np.ndarray] | None = None) -> NoiseEstimate | None:
+    """The best available estimate (see the module doc), or None.  ``monitors``: drift-monitor
+    outputs (:func:`from_monitor`), counted as repeated visits."""
     runs = list(base.fit_runs) + list(check_runs)
     repeated = from_repeated_runs(runs)
     if repeated is not None:
         return repeated
-    found = [e for e in (from_fit_residual(base), from_repeated_visits(check_runs)) if e is not None]
+    visits = from_repeated_visits(check_runs)
+    monitor = from_monitor(monitors or [])
+    if visits is not None and monitor is not None:
+        visits = combine(visits, monitor)
+    elif visits is None:
+        visits = monitor
+    found = [e for e in (from_fit_residual(base), visits) if e is not None]
     if len(found) == 2:
         return combine(*found)
     return found[0] if found else None

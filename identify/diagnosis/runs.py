@@ -38,6 +38,14 @@ class Run:
     taken to be at ``t_s``).  ``readings`` is the number of sensor readings
     averaged per measurement (None when unknown).  ``initial_V`` is the
     input the run started from (the sequencer saturates at 0 V).
+
+    ``input_unit``/``output_unit`` name the run's units (the VO2 rig's V
+    and um by default; an imported FORC measurement's T and A m^2): every
+    "V" and "um" of the diagnosis means these.  ``by_curves`` marks a run
+    made of curves (first-order reversal curves), whose residual is also
+    binned by the reversal input of every point.  ``timed`` is False when
+    the run's times carry no information (all equal): effects of time are
+    then not applicable.
     """
 
     name: str
@@ -47,6 +55,19 @@ class Run:
     dwell_s: np.ndarray
     readings: int | None = None
     initial_V: float = 0.0
+    input_unit: str = "V"
+    output_unit: str = "um"
+    by_curves: bool = False
+
+    @property
+    def timed(self) -> bool:
+        """Whether the run's time stamps say anything (they are not all equal)."""
+        return bool(self.t_s.size > 1 and self.t_s[-1] > self.t_s[0])
+
+    @property
+    def has_dwell(self) -> bool:
+        """Whether any point's dwell (set-point to readings) is known."""
+        return bool(np.any(np.isfinite(self.dwell_s)))
 
     def __post_init__(self) -> None:
         v = check_inputs(self.inputs, f"{self.name}: input")
@@ -103,6 +124,9 @@ class History:
     from it, and the excursion that ended there (from the previous
     reversal, or from ``initial_V``); ``turn_index`` ``(R,)`` the first
     point after each reversal (the one whose set-point turned back).
+    ``reversal_V`` ``(n,)``: the input at the last reversal point at or
+    before each point (NaN before the first); on a first-order reversal
+    curve, the curve's reversal field.
     """
 
     branch: np.ndarray
@@ -112,6 +136,7 @@ class History:
     turn_index: np.ndarray
     turn_t: np.ndarray
     excursion_V: np.ndarray
+    reversal_V: np.ndarray
 
     def after_turn(self) -> np.ndarray:
         """``(n, R)`` bool: point ``k`` comes after the input turned back at reversal ``r`` (its
@@ -149,4 +174,7 @@ class History:
         last_turn = np.searchsorted(first_after, np.arange(n), side="right") - 1
         start = run.setpoint_t[0]
         since = run.t_s - np.where(last_turn >= 0, turn_t[np.maximum(last_turn, 0)], start)
-        return cls(branch, since, step, rev_idx, first_after, turn_t, excursion)
+        at_or_before = np.searchsorted(rev_idx, np.arange(n), side="right") - 1
+        rev_at = v[rev_idx[np.maximum(at_or_before, 0)]] if rev_idx.size else np.zeros(n)
+        rev_at = np.where(at_or_before >= 0, rev_at, np.nan)
+        return cls(branch, since, step, rev_idx, first_after, turn_t, excursion, rev_at)

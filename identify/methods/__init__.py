@@ -9,6 +9,8 @@ name            paper                                    needs
 ``cs_order_nn`` 'CS Order Non-negative', equation (17)   damped osc. + order
 ``cs_nodct``    'CS Without DCT', figure 4(a)            damped oscillation
 ``smooth_nn``   ours: NNLS + roughness penalty, GCV      any input history
+``everett``     Mayergoyz: second differences of FORCs   first-order reversal
+                                                         curves
 =============== ======================================== ====================
 """
 
@@ -19,6 +21,7 @@ from typing import Any
 from ..errors import IdentifyError
 from .base import Method
 from .compressive import CompressiveSensing, CompressiveSensingNoDCT, CompressiveSensingOrder
+from .forc_everett import EverettFORC
 from .least_squares import LeastSquares
 from .ordered_nn import CompressiveSensingOrderNonNegative
 from .problem import Problem, choose_rows
@@ -33,8 +36,13 @@ METHODS: dict[str, type[Method]] = {
         CompressiveSensingOrderNonNegative,
         CompressiveSensingNoDCT,
         SmoothNonNegative,
+        EverettFORC,
     )
 }
+
+
+#: The methods that apply to the damped oscillation (all but those that need curves).
+DAMPED_METHODS: tuple[str, ...] = tuple(name for name, cls in METHODS.items() if not cls.needs_curves)
 
 
 def make_method(name: str, **settings: Any) -> Method:
@@ -48,4 +56,4 @@ def make_method(name: str, **settings: Any) -> Method:
     return cls(**settings)
 
 
-__all__ = ["METHODS", "Method", "Problem", "choose_rows", "make_method"]
+__all__ = ["DAMPED_METHODS", "METHODS", "Method", "Problem", "choose_rows", "make_method"]

@@ -22,7 +22,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..errors import IdentifyError
+from ..errors import IdentifyError, MethodNotApplicable
 from ..model import PreisachModel
 from .problem import Problem
 
@@ -39,6 +39,8 @@ class Method(ABC):
     needs_square: ClassVar[bool] = False
     #: Needs the order of all outputs (the 'CS Order' assumption).
     needs_order: ClassVar[bool] = False
+    #: Needs inputs made of first-order reversal curves (``problem.curves``).
+    needs_curves: ClassVar[bool] = False
 
     def __init__(self, solver: str = "fast") -> None:
         if solver not in SOLVERS:
@@ -59,9 +61,12 @@ class Method(ABC):
         dense = self.dense
         start = time.perf_counter()
         if self.needs_square:
-            problem.require_square()  # raises MethodNotApplicable with the reason
-            if dense:
-                problem.square_lu  # and the dense path checks S numerically
+            try:
+                problem.require_square()  # raises MethodNotApplicable with the reason
+                if dense:
+                    problem.square_lu  # and the dense path checks S numerically
+            except MethodNotApplicable as exc:
+                raise MethodNotApplicable(f"{self.name} {exc}") from None
         if self.needs_order:
             problem.require_order(self.name)
         w, info = self._solve(problem)

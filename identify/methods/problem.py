@@ -62,6 +62,9 @@ class Problem:
         ``None``.
     initial, history: the memory before the first input (see
         :func:`identify.regressor.initial_curve`).
+    curves: ``(n,)`` the curve each applied row belongs to (-1: none), for
+        inputs made of first-order reversal curves (needed by ``everett``),
+        else ``None``.
 
     ``regressor`` (dense ``S``, ``(n, P)``) and ``operator`` (the same as a
     matrix-free :class:`~identify.operators.RegressorOperator`) are built on
@@ -77,6 +80,7 @@ class Problem:
     initial: InitialState = "negative"
     history: np.ndarray | None = None
     dense: np.ndarray | None = field(default=None, repr=False)
+    curves: np.ndarray | None = None
 
     @classmethod
     def build(
@@ -89,6 +93,7 @@ class Problem:
         initial: InitialState = "negative",
         history: np.ndarray | None = None,
         regressor: np.ndarray | None = None,
+        curves: np.ndarray | None = None,
     ) -> "Problem":
         """A problem from the applied inputs (V) and the outputs (um) of every row.
 
@@ -97,6 +102,7 @@ class Problem:
         known, ``order`` is their ascending sort (the paper's assumption for
         'CS Order').  ``regressor`` (the dense ``S``) may be passed when
         already computed; otherwise nothing is built until a method asks.
+        ``curves`` ``(n,)`` numbers the curve of every applied row (-1: none).
         """
         v = check_inputs(inputs)
         y = np.asarray(outputs, dtype=float)
@@ -122,8 +128,13 @@ class Problem:
             raise IdentifyError("regressor shape does not match the inputs and grid")
         if history is not None:
             history = check_inputs(history, "history input")
+        if curves is not None:
+            curves = np.asarray(curves)
+            if curves.shape != v.shape or (curves.size and not np.issubdtype(curves.dtype, np.integer)):
+                raise IdentifyError(f"curve index must be {v.size} whole numbers, one per input")
+            curves = curves.astype(np.int64)
         order = np.argsort(y, kind="stable") if np.all(known) else None
-        return cls(grid, v, thermal_term, rows, y[rows].copy(), order, initial, history, regressor)
+        return cls(grid, v, thermal_term, rows, y[rows].copy(), order, initial, history, regressor, curves)
 
     # ---------------------------------------------------------- dimensions
     @property
@@ -186,6 +197,11 @@ class Problem:
         L = self.grid.levels
         P = self.n_parameters
         design = "damped oscillation" + (" plus the thermal point" if self.thermal_term else "")
+        if self.curves is not None and np.any(self.curves >= 0):
+            raise MethodNotApplicable(
+                f"does not apply to FORC data (first-order reversal curves): it needs the square {design} "
+                f"design of the grid, {P} applied inputs on its walls for L={L}; use ls, smooth_nn or everett"
+            )
         if self.n != P:
             raise MethodNotApplicable(
                 f"needs the square {design} design: {P} applied inputs for L={L}, got {self.n}"

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 from ..errors import IdentifyError
 from ..grid import Grid, n_cells
-from ..methods import METHODS
+from ..methods import DAMPED_METHODS, METHODS
 from ..profiles import PROFILES
 
 #: The study builds the dense regressor S (N x N) in every worker: 200 MB at L = 100.
@@ -53,7 +53,7 @@ class StudySetup:
     runs: int = 1000
     noise: float = 10.0
     seed: int = 0
-    methods: tuple[str, ...] = field(default_factory=lambda: tuple(METHODS))
+    methods: tuple[str, ...] = field(default_factory=lambda: DAMPED_METHODS)
     sweep_measurements: tuple[int, ...] = ()
     sweep_noise: tuple[float, ...] = ()
     validation_points: int = 500
@@ -96,8 +96,10 @@ class StudySetup:
         if not self.methods:
             raise IdentifyError("no methods to compare")
         for name in self.methods:
-            if name not in METHODS:
-                raise IdentifyError(f"unknown method {name!r}; choose from {', '.join(METHODS)}")
+            if name not in DAMPED_METHODS:
+                what = (f"method {name!r} does not apply to the study's damped oscillation" if name in METHODS
+                        else f"unknown method {name!r}")
+                raise IdentifyError(f"{what}; choose from {', '.join(DAMPED_METHODS)}")
         if len(set(self.methods)) != len(self.methods):
             raise IdentifyError("a method is listed twice")
 

@@ -6,10 +6,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
+import numpy as np
 
 from identify.diagnosis import CANDIDATES, DiagnosisSettings, diagnose as run_diagnosis
 from identify.methods import METHODS
 
+from ..curve_selection import CURVE_CHOICES
+from ..diagnosis.calibration import drift_agreement
 from ..diagnosis.loading import load_runs
 from ..diagnosis.report import to_json, to_text
 from ..errors import UserError
@@ -48,8 +51,15 @@ def _effects(text: str | None) -> tuple[str, ...] | None:
 @click.option("--effects", help=f"Candidate library, comma-separated [all: {', '.join(CANDIDATES)}].")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the block bootstrap.")
 @click.option("--partial", is_flag=True, help="Accept partial sessions (not complete): use the points they hold.")
+@click.option("--fit-curves", type=click.Choice(CURVE_CHOICES), default="all", show_default=True,
+              help="Fit on the measured points of these curves only (runs made of curves, e.g. FORC).")
+@click.option("--check-curves", type=click.Choice(CURVE_CHOICES), default="all", show_default=True,
+              help="Judge on the measured points of these curves only; with --fit-curves even --check-curves odd "
+                   "one FORC session serves as both.")
+@click.option("--stride", type=int,
+              help="Runs made of curves: use every K-th measured point of each curve [about 3000 points per run].")
 def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_min, v_max, method, effects, seed,
-             partial):
+             partial, fit_curves, check_curves, stride):
     """Diagnose the sim-to-real gap of equation (22): fit on --fit, judge on --check.
 
     The model is identified on the identification run(s) only and judged on
@@ -60,21 +70,25 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     gap shrinks with it.
     """
     checks = list(check_paths) + list(more_checks)
-    loaded = load_runs(list(fit_paths), checks, levels, v_min, v_max, allow_partial=partial)
+    loaded = load_runs(list(fit_paths), checks, levels, v_min, v_max, allow_partial=partial,
+                       fit_curves=fit_curves, check_curves=check_curves, stride=stride)
     settings = DiagnosisSettings(method=method, effects=_effects(effects), seed=seed)
-    result = run_diagnosis(loaded.fit, loaded.check, loaded.grid, settings)
-    fit_names, check_names = [str(p) for p in fit_paths], [str(p) for p in checks]
+    result = run_diagnosis(loaded.fit, loaded.check, loaded.grid, settings,
+                           monitors=[np.asarray(m.output, dtype=float) for m in loaded.unique_monitors()])
+    fit_names = [str(p) + ("" if fit_curves == "all" else f":{fit_curves}") for p in fit_paths]
+    check_names = [str(p) + ("" if check_curves == "all" else f":{check_curves}") for p in checks]
+    agreement = drift_agreement(result, loaded)
     written = []
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
         written = [save_figure(where_figure(result), out_dir / "where.png"),
                    save_figure(candidates_figure(result), out_dir / "candidates.png")]
     if as_json:
-        obj = to_json(result, fit_names, check_names, loaded.warnings)
+        obj = to_json(result, fit_names, check_names, loaded.warnings, agreement)
         if written:
             obj["figures"] = [str(p) for p in written]
         print_json(obj)
         return
-    click.echo(to_text(result, fit_names, check_names, loaded.warnings))
+    click.echo(to_text(result, fit_names, check_names, loaded.warnings, agreement))
     for p in written:
         click.echo(f"wrote {p}")

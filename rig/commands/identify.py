@@ -11,6 +11,7 @@ import click
 from identify import METHODS
 from identify.methods.base import SOLVERS
 
+from ..curve_selection import CURVE_CHOICES
 from ..errors import UserError
 from ..output import format_table, print_json, unit_token
 from ..parallel import default_workers, run_parallel, start_workers
@@ -45,9 +46,9 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
 @click.option("--levels", "-L", type=int,
               help="Discretisation levels L (>= 1); default for a session: its excitation's.")
 @click.option("--v-min", type=float,
-              help="Lower end of the grid (input unit); default: the session's grid, else the data's minimum.")
+              help="Lower end of the grid (input unit); default: the session's grid, else the smallest measured input.")
 @click.option("--v-max", type=float,
-              help="Upper end of the grid (input unit); default: the session's grid, else the data's maximum.")
+              help="Upper end of the grid (input unit); default: the session's grid, else the largest measured input.")
 @click.option(
     "--method", type=click.Choice(list(METHODS)), default="ls", show_default=True,
     help="Identification method.",
@@ -60,6 +61,9 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
 @click.option("--measurements", "-M", type=int,
               help="Use only M of the measured rows, chosen at random (default: all).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed for choosing the M rows.")
+@click.option("--curves", type=click.Choice(CURVE_CHOICES), default="all", show_default=True,
+              help="Fit the measured points of these curves only (numbered from 0; runs made of curves, "
+                   "e.g. an imported FORC file); every applied point still sets the memory state.")
 @click.option(
     "--thermal-term/--no-thermal-term", default=True, show_default=True,
     help="Fit the linear thermal term c_d v of equation (22).",
@@ -75,7 +79,8 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
               help="Fit partial sessions (running, aborted, failed) too; such a model is stored only with --name.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1),
               help="Processes for several files (default: one per core, at most one per file).")
-def identify(files, levels, v_min, v_max, method, solver, measurements, seed, thermal_term, as_json, save, name,
+def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, as_json, save,
+             name,
              store, force, partial, jobs):
     """Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um).
 
@@ -90,7 +95,7 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, th
         raise UserError("--name stores the model; it cannot go with --no-store")
     paths = list(files)
     options = IdentifyOptions(levels, v_min, v_max, method, measurements, seed, thermal_term, store, name, force,
-                              partial, solver=solver)
+                              partial, solver=solver, curves=curves)
     targets = save_targets(save, paths)
     start = time.perf_counter()
     workers = default_workers(len(paths), jobs)

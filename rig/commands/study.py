@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from identify import METHODS
+from identify.methods import DAMPED_METHODS
 from identify.profiles import PROFILES
 from identify.study import (
     StudySetup, default_measurement_sweep, default_noise_sweep, findings, summarise,
@@ -42,7 +42,7 @@ def _number_list(text: str | None, kind: type, option: str) -> tuple | None:
 @click.option("--noise", type=float, default=10.0, show_default=True,
               help="Noise amplitude D (um): uniform on [-D/2, D/2].")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the whole study.")
-@click.option("--method", "methods", type=click.Choice(list(METHODS)), multiple=True,
+@click.option("--method", "methods", type=click.Choice(list(DAMPED_METHODS)), multiple=True,
               help="Method to compare (repeat the option; default: all).")
 @click.option("--sweep", is_flag=True,
               help="Also sweep M (multiples of 50 below N) and D (0, 5, 10, 20, 40): figures 4 and 5.")
@@ -63,7 +63,7 @@ def study(profile, runs, measurements, levels, noise, seed, methods, sweep, swee
     m_sweep = _number_list(sweep_measurements, int, "--sweep-measurements")
     d_sweep = _number_list(sweep_noise, float, "--sweep-noise")
     setup = StudySetup(profile=profile, levels=levels, measurements=measurements, runs=runs, noise=noise,
-                       seed=seed, methods=tuple(methods) or tuple(METHODS),
+                       seed=seed, methods=tuple(methods) or DAMPED_METHODS,
                        validation_points=validation_points)
     if sweep or m_sweep:
         m_sweep = m_sweep or default_measurement_sweep(setup.n_points)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from ..curve_selection import CURVE_CHOICES, selected_rows
 from ..output import format_table, print_json, unit_token
 from ..scoring import score_model
 from ..session_input import choose_model, open_run, session_of
@@ -17,17 +18,21 @@ from ..session_input import choose_model, open_run, session_of
 @click.option("--on", "run", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="The run to predict: a session (or CSV trace), e.g. a random-input validation run.")
 @click.option("--partial", is_flag=True, help="Accept a partial validation session (the points it holds).")
+@click.option("--curves", type=click.Choice(CURVE_CHOICES), default="all", show_default=True,
+              help="Compare on the measured points of these curves only (numbered from 0); every applied point "
+                   "still sets the memory state.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def validate(session, model_name, run, partial, as_json):
+def validate(session, model_name, run, partial, curves, as_json):
     """Apply the model stored in SESSION to the run given with --on and report its errors.
 
     The memory starts in negative saturation; every applied point of the
-    run is predicted and compared where it was measured. Nothing is written.
+    run is predicted and compared where it was measured (on the selected
+    curves). Nothing is written.
     """
     source = session_of(open_run(session, allow_partial=True), "rig validate")
     record = choose_model(source, model_name)
     data = open_run(run, allow_partial=partial)
-    result = score_model(record, data)
+    result = score_model(record, data, rows=selected_rows(data, curves))
     g = record.model.grid
     summary = {
         "session": str(session),
@@ -39,6 +44,8 @@ def validate(session, model_name, run, partial, as_json):
         "v_max": g.v_max,
         "n_points": result.n_points,
         "n_measured": result.n_measured,
+        "n": result.n_measured,
+        "curves": curves,
         "rmse": result.rmse,
         "max_abs": result.max_abs,
         "nrmse": result.nrmse,

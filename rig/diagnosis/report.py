@@ -24,9 +24,11 @@ def _bins(binning: Binning) -> list[dict[str, Any]]:
     return out
 
 
-def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str]) -> dict[str, Any]:
+def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
+            drift_monitor: dict[str, Any] | None = None) -> dict[str, Any]:
     """The ``--json`` object: ``baseline``, ``where``, ``candidates``, ``verdict`` (the contract), and
-    the extras documented in the README."""
+    the extras documented in the README.  The keys keep their ``_um``/``V`` names (the contract);
+    their values are in the runs' units, named by ``units``."""
     after = {w.by: w for w in d.where_after} if d.where_after is not None else {}
     chosen = d.chosen
     where = []
@@ -83,6 +85,8 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str])
         "check": check,
         "grid": {"levels": d.grid.levels, "v_min": d.grid.v_min, "v_max": d.grid.v_max},
         "method": d.method,
+        "units": {"input": d.input_unit, "output": d.output_unit},
+        "drift_monitor": drift_monitor,
     }
 
 
@@ -94,23 +98,25 @@ def _fmt(x: float | None, spec: str = ".4g") -> str:
 SHOWN_BINS = 2
 
 
-def _stand_out(w: Binning) -> str | None:
+def _stand_out(w: Binning, unit: str = "um") -> str | None:
     out = [b for b in w.bins if b.significant]
     if not out:
         return None
     top = sorted(out, key=lambda b: -max(abs(b.mean_um), b.rms_um))[:SHOWN_BINS]
     text = "; ".join(
-        f"{b.label or f'{b.lo:.3g}..{b.hi:.3g} {w.unit}'.rstrip()}: mean {b.mean_um:+.2g}, rms {b.rms_um:.2g} um (n={b.n})"
+        f"{b.label or f'{b.lo:.3g}..{b.hi:.3g} {w.unit}'.rstrip()}: mean {b.mean_um:+.2g}, rms {b.rms_um:.2g} {unit} (n={b.n})"
         for b in top
     )
     return f"{len(out)} of {len(w.bins)} bins stand out, most: {text}"
 
 
-def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str]) -> str:
-    """The readable report: how far, where, which, and the verdict."""
+def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
+            drift_monitor: dict[str, Any] | None = None) -> str:
+    """The readable report: how far, where, which, the verdict, and the drift monitor when there is one."""
+    u, vu = d.output_unit, d.input_unit
     lines = [
         f"Gap diagnosis: equation (22) fitted on {', '.join(fit)} ({d.method}, L={d.grid.levels} on "
-        f"[{d.grid.v_min:g}, {d.grid.v_max:g}] V), judged on {', '.join(check)} "
+        f"[{d.grid.v_min:g}, {d.grid.v_max:g}] {vu}), judged on {', '.join(check)} "
         f"({d.points.residual.size} held-out points)",
         "",
     ]
@@ -127,13 +133,13 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str])
     }[v.status]
     lines.append(f"Verdict: {headline} -- {v.reason}.")
     noise = d.noise
-    floor = (f"noise floor {_fmt(d.noise_floor_um)} um (measurement noise {_fmt(d.measurement_noise_um)} um "
+    floor = (f"noise floor {_fmt(d.noise_floor_um)} {u} (measurement noise {_fmt(d.measurement_noise_um)} {u} "
              f"from {noise.source}, plus identification noise carried by the fit)" if noise else
              "noise floor unknown")
-    lines.append(f"How far: held-out RMSE {_fmt(d.baseline_rmse_um)} um; {floor}.")
+    lines.append(f"How far: held-out RMSE {_fmt(d.baseline_rmse_um)} {u}; {floor}.")
     if d.recalibrated:
         lines.append(
-            f"  (as identified the model misses by {_fmt(d.fit_only_rmse_um)} um; {d.recalibrated} direction(s) of "
+            f"  (as identified the model misses by {_fmt(d.fit_only_rmse_um)} {u}; {d.recalibrated} direction(s) of "
             f"the fit into which the identification design amplifies noise (x{d.amplification[0]:.1f}; on the "
             f"damped oscillation chiefly the thermal term, identified through one point) are re-estimated on "
             f"held-out check blocks first)"
@@ -142,13 +148,13 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str])
     if chosen is not None:
         c = d.score(chosen)
         share = f", {100 * c.share_closed:.0f} % of the excess over the noise floor" if c.share_closed is not None else ""
-        lines.append(f"  with {chosen}: {_fmt(c.rmse_um)} um, shrink {100 * c.shrink:.0f} % "
+        lines.append(f"  with {chosen}: {_fmt(c.rmse_um)} {u}, shrink {100 * c.shrink:.0f} % "
                      f"[{100 * c.ci[0]:.0f}, {100 * c.ci[1]:.0f}]{share}.")
     lines.append("")
     lines.append("Where (residual = model - measured; bins that stand out beyond the noise):")
     any_out = False
     for w in d.where:
-        out = _stand_out(w)
+        out = _stand_out(w, u)
         if out:
             any_out = True
             lines.append(f"  by {w.by}: {out}")
@@ -161,7 +167,7 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str])
         rows.append([c.effect, c.rmse_um, f"{100 * c.shrink:+.0f} %", f"[{100 * c.ci[0]:+.0f}, {100 * c.ci[1]:+.0f}]",
                      round(c.z, 1), "-" if c.share_closed is None else f"{100 * c.share_closed:.0f} %",
                      "yes" if c.visible else "no"])
-    lines.append(format_table(["effect", "rmse_um", "shrink", "95% interval", "z", "of excess", "visible"], rows))
+    lines.append(format_table(["effect", f"rmse ({u})", "shrink", "95% interval", "z", "of excess", "visible"], rows))
     for c in d.candidates:
         if c.note:
             lines.append(f"  {c.effect}: {c.note}")
@@ -170,7 +176,23 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str])
     if chosen is not None:
         lines.append("")
         lines.append(f"{chosen}: {CANDIDATES[chosen].summary}; fitted: {_params_text(d.score(chosen).params)}")
+    if drift_monitor is not None:
+        lines.append("")
+        lines.append(drift_text(drift_monitor, u))
     return "\n".join(lines)
+
+
+def drift_text(m: dict[str, Any], unit: str) -> str:
+    """One paragraph: the calibration points against the drift the diagnosis inferred."""
+    head = (f"Drift monitor: {m['n']} calibration points measured {_fmt(m['measured_rms'])} {unit} rms "
+            f"(range {_fmt(m['measured_range'])} {unit}) over the session")
+    if m.get("drift_correction"):
+        head += f", outputs already drift-corrected ({m['drift_correction']})"
+    if m.get("inferred_rms") is None:
+        return head + f"; {m['note']}."
+    return (head + f"; baseline_drift inferred on {m['run']} {_fmt(m['inferred_rms'])} {unit} rms at those "
+            f"times, correlation {_fmt(m['correlation'], '.2f')}, rms difference {_fmt(m['rms_difference'])} {unit}"
+            f" -- {m['agreement']}.")
 
 
 def _params_text(params: dict[str, Any], depth: int = 0) -> str:

@@ -20,7 +20,17 @@ LABELS = {
     "last_step_V": "last step (V)",
     "predicted_um": f"predicted {DEFLECTION.label}",
     "session_time_s": "session time (s)",
+    "reversal_V": "reversal field",
 }
+
+
+def _label(by: str, unit: str, heater: bool) -> str:
+    """The axis label of a binned quantity, in the runs' units (a FORC session: field in, moment out)."""
+    if heater or by in ("branch", "time_since_reversal_s", "session_time_s"):
+        return LABELS.get(by, by) if by != "reversal_V" else f"input at the last reversal ({unit})"
+    names = {"input_V": "applied input", "last_step_V": "last step", "predicted_um": "predicted output",
+             "reversal_V": "input at the last reversal"}
+    return f"{names.get(by, by)} ({display_unit(unit)})"
 BEFORE, AFTER = COLOURS["measured"], COLOURS["model"]
 
 
@@ -31,7 +41,8 @@ def _positions(w: Binning) -> tuple[np.ndarray, list[str] | None]:
     return np.array([0.5 * (b.lo + b.hi) for b in w.bins]), None
 
 
-def _panel(ax: Axes, w: Binning, after: Binning | None, effect: str | None, floor: float | None) -> None:
+def _panel(ax: Axes, w: Binning, after: Binning | None, effect: str | None, floor: float | None,
+           units: tuple[str, str] = ("V", "um")) -> None:
     x, names = _positions(w)
     shift = 0.25 * (np.min(np.diff(x)) if x.size > 1 else 1.0) if after is not None else 0.0
     for binning, colour, dx, name in ((w, BEFORE, -shift / 2, "base model"),
@@ -50,7 +61,7 @@ def _panel(ax: Axes, w: Binning, after: Binning | None, effect: str | None, floo
     ax.axhline(0.0, color=COLOURS["reference"], linewidth=0.8)
     if names is not None:
         ax.set_xticks(x, names)
-    label_axes(ax, LABELS.get(w.by, w.by), f"residual ({display_unit('um')})")
+    label_axes(ax, _label(w.by, w.unit, units == ("V", "um")), f"residual ({display_unit(units[1])})")
 
 
 def where_figure(d: Diagnosis) -> Figure:
@@ -62,7 +73,7 @@ def where_figure(d: Diagnosis) -> Figure:
     fig, axes = new_figure(rows, cols, size=(13.0, 4.0 * rows + 0.8))
     after = {w.by: w for w in d.where_after} if d.where_after is not None else {}
     for ax, w in zip(axes.flat, d.where):
-        _panel(ax, w, after.get(w.by), d.chosen, d.noise_floor_um)
+        _panel(ax, w, after.get(w.by), d.chosen, d.noise_floor_um, (d.input_unit, d.output_unit))
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     handles, names = axes.flat[0].get_legend_handles_labels()
