@@ -95,16 +95,19 @@ def _ridge_along(k: np.ndarray, v: np.ndarray):
     """
     m = v.size
     norm = float(np.linalg.norm(v))
+    k = np.array(k, dtype=float, order="F")  # a copy: updated in place below
     if norm > 0.0:
         u = v.copy()
         u[0] += np.copysign(norm, v[0])
         u /= np.linalg.norm(u)
         ku = k @ u
-        k = k - 2.0 * (np.outer(u, ku) + np.outer(ku, u)) + 4.0 * float(u @ ku) * np.outer(u, u)
+        # H k H = k + u z^T + z u^T, z = 2 (u^T k u) u - 2 k u: a rank-two update of the lower triangle
+        z = 2.0 * float(u @ ku) * u - 2.0 * ku
+        k = scipy.linalg.blas.dsyr2(1.0, u, z, a=k, lower=1, overwrite_a=1)
     if m == 1:
         d, e = np.array([k[0, 0]]), np.zeros(0)
     else:
-        _, d, e, _, info = scipy.linalg.lapack.dsytrd(k, lower=1)
+        _, d, e, _, info = scipy.linalg.lapack.dsytrd(k, lower=1, overwrite_a=1)
         if info != 0:  # pragma: no cover - LAPACK argument error
             raise np.linalg.LinAlgError(f"dsytrd failed ({info})")
     values = scipy.linalg.lapack.dstev(d, e, compute_v=0)[0] if m > 1 else d.copy()
