@@ -37,6 +37,10 @@ TOLERANCE = 1e-9
 #: (minimum degree on ``G + G^T``) ordering and diagonal pivots, several times faster
 #: than the default column ordering with partial pivoting, and with less fill.
 SPD_LU = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0, "options": {"SymmetricMode": True}}
+#: Below this order the Gram blocks are factorised without supernodes (SuperLU's panel size
+#: and relaxation 1): a quarter faster at L = 30 (about 350 rows, ten non-zeros each),
+#: where the supernode bookkeeping costs more than it saves.
+SMALL_GRAM = 2000
 
 
 def _settings() -> "clarabel.DefaultSettings":
@@ -133,7 +137,8 @@ def _active_set_projection(cells, y, active: np.ndarray, max_rounds: int = 40) -
 def _solve_gram(gram, rhs: np.ndarray) -> np.ndarray | None:
     """``gram^{-1} rhs`` by sparse LU (a block of the Gram matrix of a few-entries-per-row ``T``)."""
     try:
-        return scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(gram), **SPD_LU).solve(rhs)
+        small = {"panel_size": 1, "relax": 1} if gram.shape[0] < SMALL_GRAM else {}
+        return scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(gram), **SPD_LU, **small).solve(rhs)
     except RuntimeError:  # singular: dependent rows
         return None
 
