@@ -100,6 +100,7 @@ def bench(
                 "ratio": dense["median_s"] / fast["median_s"] if ok and dense_ok else None,
                 "peak_mb": fast.get("peak_mb") if ok else None,
                 **compare(case, fast, dense),
+                "fast_cold_s": fast.get("first_s") if ok else None,
                 "fast_cpu_s": fast.get("cpu_s") if ok else None,
                 "dense_cpu_s": dense.get("cpu_s") if dense_ok else None,
                 "traced_mb": fast.get("traced_mb") if ok else None,

@@ -5,7 +5,9 @@
 default settings) or ``"dense"`` (``solver="dense"``, the reference).  Prints one JSON object: the timed runs
 (end to end: building the problem from the raw data plus the fit; wall
 time, and the process's CPU time, which a busy machine disturbs less),
-the peak memory and the fitted parameters.
+the peak memory and the fitted parameters.  ``first_s`` is the first run's
+time: a cold start (empty design cache, :mod:`identify.design_cache`, and
+every other per-grid cache), where the later runs re-fit on the same design.
 
 Memory, in MB:
 
@@ -72,6 +74,7 @@ def measure(spec: dict) -> dict:
     return {
         "seconds": seconds,
         "median_s": float(np.median(seconds)),
+        "first_s": seconds[0],
         "cpu_s": float(np.median(cpu)),
         "peak_mb": peak,
         "baseline_mb": baseline,

@@ -337,3 +337,33 @@ def test_any_small_problem_gives_a_bounded_non_negative_fit(seed, levels, therma
     assert np.all(fit.model_.density >= 0)
     assert np.abs(fit.parameters_).max() < 1e4 * scale
     assert np.sqrt(np.mean((problem.measured_regressor @ fit.parameters_ - problem.measured) ** 2)) < 2 * scale
+
+
+# ---------------------------------------------------------------- GCV without eigenvectors
+@pytest.mark.parametrize("m", [1, 2, 7, 40])
+def test_ridge_residuals_from_the_tridiagonal_form_equal_the_eigendecomposition(m):
+    from identify.methods.gcv import _ridge_along
+
+    rng = np.random.default_rng(m)
+    b = rng.normal(size=(m, max(m - 2, 1)))  # rank-deficient for m > 3, like the projected rows
+    k = b @ b.T
+    v = rng.normal(size=m)
+    lams = np.logspace(-6, 3, 13)
+    values, rss = _ridge_along(k, v)
+    s, u = np.linalg.eigh(k)
+    np.testing.assert_allclose(np.sort(values), s, atol=1e-10 * s.max())
+    want = ((lams[:, None] / (np.clip(s, 0, None)[None, :] + lams[:, None])) ** 2 * (u.T @ v) ** 2).sum(axis=1)
+    np.testing.assert_allclose(rss(lams), want, rtol=1e-6)
+    # no data: nothing to fit, no residual
+    assert np.all(_ridge_along(k, np.zeros(m))[1](lams) == 0.0)
+
+
+def test_grounded_root_stands_in_for_the_standard_form_once_constants_are_projected_out():
+    from identify.methods.triangle_penalty import grounded_root
+
+    grid = Grid(6, 0.0, 1.0)
+    f, w = grounded_root(grid), standard_form(grid)
+    assert np.allclose(np.triu(f, 1), 0.0)  # lower triangular
+    n = grid.n_cells
+    centre = np.eye(n) - 1.0 / n  # removes the constant weight
+    np.testing.assert_allclose(centre @ f @ f.T @ centre, w @ w.T, atol=1e-10)

@@ -26,6 +26,7 @@ scipy's fast DCT in ``O(N log N)`` -- the matrix is never formed.
 from __future__ import annotations
 
 import warnings
+from functools import cached_property
 
 import numpy as np
 import scipy.fft
@@ -63,12 +64,22 @@ class PartialDCT:
         return scipy.fft.dct(full, type=2, norm="ortho")
 
     def columns(self, cols: np.ndarray) -> np.ndarray:
-        """Columns ``cols`` of ``Phi``, dense ``(M, len(cols))``, from the closed form."""
-        k = np.asarray(cols, dtype=float)[None, :]
-        m = self.positions.astype(float)[:, None]
-        out = np.sqrt(2.0 / self.n) * np.cos(np.pi * k * (2.0 * m + 1.0) / (2.0 * self.n))
-        out[:, np.asarray(cols) == 0] = np.sqrt(1.0 / self.n)
+        """Columns ``cols`` of ``Phi``, dense ``(M, len(cols))``, from the closed form.
+
+        ``cos(pi k (2m + 1) / 2N)`` depends on ``k (2m + 1)`` modulo ``4N``
+        only: it is looked up in a table of ``4N`` cosines instead of
+        evaluated ``M x len(cols)`` times (and the argument never grows).
+        """
+        cols = np.asarray(cols, dtype=np.int64)
+        phase = (cols[None, :] * (2 * self.positions[:, None] + 1)) % (4 * self.n)
+        out = self._cosines[phase]
+        out[:, cols == 0] = np.sqrt(1.0 / self.n)
         return out
+
+    @cached_property
+    def _cosines(self) -> np.ndarray:
+        """``sqrt(2/N) cos(pi j / 2N)`` for ``j = 0 .. 4N - 1``."""
+        return np.sqrt(2.0 / self.n) * np.cos(np.pi * np.arange(4 * self.n) / (2.0 * self.n))
 
 
 def _soft(u: np.ndarray, t: float) -> np.ndarray:

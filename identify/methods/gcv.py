@@ -26,10 +26,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.blas
 
 from ..grid import Grid
 from .normal_equations import NormalEquations
-from .triangle_penalty import standard_form
+from .triangle_penalty import grounded_root, standard_form
 
 #: Candidate weights span this many decades below/above the data's scale.
 DECADES_BELOW, DECADES_ABOVE = 10, 4
@@ -68,17 +69,65 @@ def _unpenalised_basis(n_cells: int, n_free: int) -> np.ndarray:
     return z
 
 
-def _spectrum_data_space(x: np.ndarray, y: np.ndarray, w: np.ndarray, n_free: int):
-    n_cells = w.shape[0]
+def _spectrum_data_space(x: np.ndarray, y: np.ndarray, grid: Grid, n_free: int):
+    n_cells = grid.n_cells
     q = _orthonormal_range(x @ _unpenalised_basis(n_cells, n_free))
-    b = x[:, :n_cells] @ w
+    # X W W^T X^T with the constants projected out: X F F^T X^T does (grounded_root), F triangular
+    b = scipy.linalg.blas.dtrmm(1.0, grounded_root(grid), x[:, :n_cells], side=1, lower=1)
     b -= q @ (q.T @ b)
     yp = y - q @ (q.T @ y)
-    sigma2, u = scipy.linalg.eigh(b @ b.T, driver="evd", check_finite=False)
-    c2 = (u.T @ yp) ** 2
-    sigma2 = np.clip(sigma2, 0.0, None)
-    # RSS(lam) = sum (lam / (s + lam))^2 c^2
-    return sigma2, c2, 0.0, q.shape[1], "data"
+    sigma2, rss = _ridge_along(b @ b.T, yp)
+    # RSS(lam) = sum (lam / (s + lam))^2 c^2, from the tridiagonal form
+    return np.clip(sigma2, 0.0, None), rss, 0.0, q.shape[1], "data"
+
+
+def _ridge_along(k: np.ndarray, v: np.ndarray):
+    """Eigenvalues of the symmetric PSD ``k`` and ``lams -> ||lam (k + lam I)^{-1} v||^2``.
+
+    Without eigenvectors (the ``M x M`` eigendecomposition's most expensive
+    part): a reflector ``H`` maps ``v`` to ``||v|| e_1``, LAPACK's
+    tridiagonal reduction of ``H k H`` (``dsytrd``, lower: its reflectors
+    leave ``e_1`` alone) gives ``T = Q^T H k H Q`` with ``Q^T H v = ||v||
+    e_1``, so ``||lam (k + lam I)^{-1} v|| = lam ||v|| ||(T + lam I)^{-1}
+    e_1||``: one ``LDL^T`` sweep of the tridiagonal ``T + lam I`` (positive
+    definite) per weight, all weights at once.  The eigenvalues are those of
+    ``T`` (``dstev``).
+    """
+    m = v.size
+    norm = float(np.linalg.norm(v))
+    k = np.array(k, dtype=float, order="F")  # a copy: updated in place below
+    if norm > 0.0:
+        u = v.copy()
+        u[0] += np.copysign(norm, v[0])
+        u /= np.linalg.norm(u)
+        ku = k @ u
+        # H k H = k + u z^T + z u^T, z = 2 (u^T k u) u - 2 k u: a rank-two update of the lower triangle
+        z = 2.0 * float(u @ ku) * u - 2.0 * ku
+        k = scipy.linalg.blas.dsyr2(1.0, u, z, a=k, lower=1, overwrite_a=1)
+    if m == 1:
+        d, e = np.array([k[0, 0]]), np.zeros(0)
+    else:
+        _, d, e, _, info = scipy.linalg.lapack.dsytrd(k, lower=1, overwrite_a=1)
+        if info != 0:  # pragma: no cover - LAPACK argument error
+            raise np.linalg.LinAlgError(f"dsytrd failed ({info})")
+    values = scipy.linalg.lapack.dstev(d, e, compute_v=0)[0] if m > 1 else d.copy()
+    e2 = e * e
+
+    def rss(lams: np.ndarray) -> np.ndarray:
+        if norm == 0.0:
+            return np.zeros(lams.size)
+        # e_1^T (T + lam)^{-1} e_1 = 1 / g_0, the continued fraction g_i = d_i + lam - e_i^2 / g_{i+1}
+        # (the pivots of T + lam = U D U^T, positive); its derivative gives e_1^T (T + lam)^{-2} e_1
+        # = g_0' / g_0^2 with g_i' = 1 + e_i^2 g_{i+1}' / g_{i+1}^2, for every weight at once
+        g = d[-1] + lams
+        slope = np.ones_like(g)
+        for i in range(m - 2, -1, -1):
+            t = e2[i] / g
+            slope = 1.0 + t * slope / g
+            g = (d[i] + lams) - t
+        return (lams * norm) ** 2 * slope / g**2
+
+    return values, rss
 
 
 def _spectrum_parameter_space(ne: NormalEquations, w: np.ndarray, n_free: int):
@@ -118,12 +167,11 @@ def gcv_curve(ne: NormalEquations, grid: Grid, n_free: int, lams: np.ndarray | N
     the data see only the unpenalised directions, up to rounding (no weight
     matters).
     """
-    w = standard_form(grid)
     m = ne.n_measured
-    if ne.rows_matrix is not None and m < w.shape[0]:
-        spec, c2, r0, rank_z, space = _spectrum_data_space(ne.rows_matrix, ne.y, w, n_free)
+    if ne.rows_matrix is not None and m < grid.n_cells - 1:
+        spec, c2, r0, rank_z, space = _spectrum_data_space(ne.rows_matrix, ne.y, grid, n_free)
     else:
-        spec, c2, r0, rank_z, space = _spectrum_parameter_space(ne, w, n_free)
+        spec, c2, r0, rank_z, space = _spectrum_parameter_space(ne, standard_form(grid), n_free)
     if spec.max(initial=0.0) <= 1e-12 * max(float(np.trace(ne.hessian)), np.finfo(float).tiny):
         return None
     return curve_from_spectrum(spec, c2, r0, rank_z, space, m, lams)
@@ -134,14 +182,17 @@ def curve_from_spectrum(spec, c2, r0, rank_z, space, m, lams=None) -> GCVCurve:
     shrink factors ``s_i / (s_i + lam)``), the squared projections ``c2`` of the data on
     them, and ``rank_z`` unpenalised directions; ``m`` measured rows.  ``space`` "data":
     ``RSS = sum (1 - f_i)^2 c2_i``; "parameter": from the normal equations, ``r0`` the
-    residual of the unpenalised fit.
+    residual of the unpenalised fit.  ``c2`` may instead be a function
+    ``lams -> RSS`` (the data-space residuals without eigenvectors).
     """
     top = spec.max(initial=0.0)
     if lams is None:
         lams = top * np.logspace(-DECADES_BELOW, DECADES_ABOVE, GRID_POINTS)
     lams = np.asarray(lams, dtype=float)
     f = spec[None, :] / (spec[None, :] + lams[:, None])          # shrink factors
-    if space == "parameter":
+    if callable(c2):  # the residual as a function of the weights (see _ridge_along)
+        rss = c2(lams)
+    elif space == "parameter":
         rss = r0 - (c2[None, :] * (spec[None, :] + 2 * lams[:, None])
                     / (spec[None, :] + lams[:, None]) ** 2).sum(axis=1)
     else:

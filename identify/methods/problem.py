@@ -26,6 +26,7 @@ from ..errors import IdentifyError, MethodNotApplicable
 from ..excitation import damped_oscillation
 from ..grid import Grid
 from ..memory import InitialState
+from .. import design_cache
 from ..operators import RegressorOperator
 from ..regressor import check_inputs, n_parameters, regressor_matrix
 from ..square import SquareSolver
@@ -161,9 +162,13 @@ class Problem:
 
         ``O(n + L^2)`` per product and in memory (:mod:`identify.operators`);
         ``operator.rows(problem.rows)`` is ``A S``.  Solvers that only need
-        products use this, so they scale to large L.
+        products use this, so they scale to large L.  Problems on the same
+        design (grid, inputs, thermal term, initial memory) share one
+        operator (:mod:`identify.design_cache`).
         """
-        return RegressorOperator(self.grid, self.inputs, self.thermal_term, self.initial, self.history)
+        return design_cache.regressor_operator(
+            self.grid, self.inputs, self.thermal_term, self.initial, self.history
+        )
 
     @property
     def measured_operator(self) -> LinearOperator:
@@ -241,9 +246,13 @@ class Problem:
 
     @cached_property
     def square_solver(self) -> SquareSolver:
-        """Sparse factorisation of the square design (:class:`~identify.square.SquareSolver`)."""
+        """Sparse factorisation of the square design (:class:`~identify.square.SquareSolver`).
+
+        Shared, with its sparse ``S^{-1}``, by the problems on the same design
+        (:mod:`identify.design_cache`).
+        """
         self.require_square()
-        return SquareSolver(self.operator)
+        return design_cache.square_solver(self.operator)
 
     @property
     def sparse_inverse(self) -> scipy.sparse.csr_array:
