@@ -21,6 +21,8 @@ The grid defaults to L = 30 levels on the heater's window (from 0 V).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import dataclasses
 from pathlib import Path
 
@@ -28,10 +30,12 @@ import numpy as np
 
 from drivers.protocols import VoltageWindow
 from identify import Excitation, Grid
-from identify.diagnosis.design import DWELLS_S, CheckDesign, check_design
 from sessions import DataFileError, ExcitationRecord
 from sessions.convert import excitation_of_trace, sha256_of
 from sessions.csvtrace import Trace, read_csv_rows
+
+if TYPE_CHECKING:
+    from identify.diagnosis.design import CheckDesign
 
 #: The paper's discretisation (section 5.2).
 DEFAULT_LEVELS = 30
@@ -120,6 +124,9 @@ def default_grid(window: VoltageWindow, levels: int | None, v_min: float | None,
 
 
 def _check_design(window: VoltageWindow, levels, v_min, v_max, points, seed) -> tuple[Grid, CheckDesign]:
+    # the diagnosis package (scipy.stats) is imported only when a check run is asked for
+    from identify.diagnosis.design import check_design
+
     grid = default_grid(window, levels, v_min, v_max)
     n = DEFAULT_CHECK_POINTS if points is None else points
     return grid, check_design(grid.v_min, grid.v_max, n, seed=seed)
@@ -148,7 +155,7 @@ def sequence_record(
     if sequence == "check":
         grid, design = _check_design(window, levels, v_min, v_max, points, seed)
         return ExcitationRecord(kind="check", inputs=design.inputs, levels=grid.levels, v_min=grid.v_min,
-                                v_max=grid.v_max, seed=seed, extra={"dwell_choices_s": list(DWELLS_S)})
+                                v_max=grid.v_max, seed=seed, extra={"dwell_choices_s": list(_dwell_choices())})
     path = Path(sequence)
     if path.suffix.lower() != ".csv" and not path.exists():
         raise DataFileError(f"--sequence {sequence!r}: expected damped, random, check or a CSV file of set-points")
@@ -157,3 +164,9 @@ def sequence_record(
     record = excitation_of_trace(Trace(zeros, v, zeros), levels, v_min, v_max,
                                  {"source": path.name, "source_sha256": sha256_of(path)})
     return dataclasses.replace(record, kind="file" if record.kind == "imported" else record.kind)
+
+
+def _dwell_choices() -> tuple[float, ...]:
+    from identify.diagnosis.design import DWELLS_S
+
+    return DWELLS_S

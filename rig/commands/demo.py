@@ -10,7 +10,6 @@ import click
 from drivers.sim import EFFECTS, SimParams, SimVO2
 from identify import PreisachModel
 
-from ..demo_pipeline import DemoSettings, run_demo
 from ..output import format_table, print_json
 
 
@@ -48,6 +47,9 @@ def demo(levels, measurements, effect, strength, seed, out_dir, as_json):
     and writes the report. Every file stays in --out for rig identify,
     validate, diagnose and report to look at again.
     """
+    # the pipeline (diagnosis, plots) is imported here, not when the rig command starts
+    from ..demo_pipeline import DemoSettings, run_demo
+
     settings = DemoSettings(levels=levels, measurements=measurements, effect=None if effect == "none" else effect,
                             strength=strength, seed=seed)
     out = Path(tempfile.mkdtemp(prefix="rig-demo-")) if out_dir is None else out_dir

@@ -17,8 +17,6 @@ from ..diagnosis.loading import load_runs
 from ..diagnosis.report import to_json, to_text
 from ..errors import UserError
 from ..output import print_json
-from ..plots.diagnosis import candidates_figure, where_figure
-from ..plots.style import save_figure
 
 _PATH = click.Path(dir_okay=False, path_type=Path)
 
@@ -80,6 +78,10 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     agreement = drift_agreement(result, loaded)
     written = []
     if out_dir is not None:
+        # matplotlib is imported here, not when the rig command starts
+        from ..plots.diagnosis import candidates_figure, where_figure
+        from ..plots.style import save_figure
+
         out_dir.mkdir(parents=True, exist_ok=True)
         written = [save_figure(where_figure(result), out_dir / "where.png"),
                    save_figure(candidates_figure(result), out_dir / "candidates.png")]
