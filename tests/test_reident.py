@@ -1,5 +1,6 @@
 """Offline re-identification: rig identify on several sessions, rig validate, rig report."""
 
+import importlib
 import json
 import os
 import shutil
@@ -104,6 +105,22 @@ def test_batch_in_parallel_gives_the_results_of_one_at_a_time(tmp_path):
         assert without(in_batch.metrics, "seconds") == without(alone.metrics, "seconds")
     # the runs differ, so equal results are not an accident of identical inputs
     assert out["results"][0]["density"] != out["results"][1]["density"]
+
+
+def test_small_batches_stay_in_one_process_unless_jobs_says_otherwise(tmp_path, monkeypatch):
+    command = importlib.import_module("rig.commands.identify")  # the module, not the click command
+
+    paths = [tmp_path / f"r{k}.h5" for k in range(2)]
+    for k, p in enumerate(paths):
+        damped_run(p, seed=k)
+    monkeypatch.setattr(command, "default_workers", lambda n, jobs=None: 2 if jobs is None else jobs)
+    run = rig_here("identify", *paths, "--no-store", "--json")
+    assert run.code == 0, run.err
+    assert run.json()["workers"] == 1  # two L = 6 fits: far less work than starting a pool
+    assert command.batch_work(command.plan_jobs(paths, command.IdentifyOptions(store=False))) < command.PARALLEL_WORK
+    monkeypatch.setattr(command, "PARALLEL_WORK", 0)  # as if the fits were large
+    run = rig_here("identify", *paths, "--no-store", "--json")
+    assert run.json()["workers"] == 2
 
 
 def test_batch_table(tmp_path):

@@ -22,6 +22,18 @@ from ..reidentify import IdentifyOptions, fit_job, plan_jobs, result_dict, store
 WORKER_MODULES = ["rig.reidentify"]
 
 
+#: Work (measured rows x parameters, summed over the files) below which a batch is fitted in this
+#: process unless --jobs asks otherwise: about 2 s of fitting on one core, what starting a pool of
+#: workers (a fork server importing numpy, scipy and cvxpy) costs; at L = 30, M = 300 a fit is
+#: 140k and 10-50 ms, at L = 100, M = 3,284 it is 17M and 0.6-2.4 s (README, Speed and scale).
+PARALLEL_WORK = 20_000_000
+
+
+def batch_work(planned) -> int:
+    """Measured rows times parameters, summed over the planned fits: what their time grows with."""
+    return sum(int(job.rows.size) * (job.grid.n_cells + 2) for job in planned)
+
+
 def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
     """Where ``--save`` writes each model: the file itself for one run, ``DIR/<stem>.json`` for several."""
     if save is None:
@@ -78,7 +90,7 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
 @click.option("--partial", is_flag=True,
               help="Fit partial sessions (running, aborted, failed) too; such a model is stored only with --name.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1),
-              help="Processes for several files (default: one per core, at most one per file).")
+              help="Processes for several files (default: one per core, at most one per file; one when the fits are too small to repay starting workers).")
 def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, as_json, save,
              name,
              store, force, partial, jobs):
@@ -99,9 +111,11 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     targets = save_targets(save, paths)
     start = time.perf_counter()
     workers = default_workers(len(paths), jobs)
-    if workers > 1:
+    if workers > 1 and jobs is not None:
         start_workers(WORKER_MODULES)  # their imports overlap the reading and checking below
     planned = plan_jobs(paths, options)
+    if jobs is None and workers > 1 and batch_work(planned) < PARALLEL_WORK:
+        workers = 1  # a pool costs about a second to start: more than these fits take one after another
     for job in planned:
         if job.partial is not None:
             click.echo(f"warning: {job.path} is partial ({job.partial})", err=True)
