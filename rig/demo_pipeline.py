@@ -31,6 +31,8 @@ from pathlib import Path
 from typing import Any
 
 from identify import Excitation
+from sessions import ModelRecord
+from sessions.recording import Recording
 
 from .diagnosis.demo import DEMO_STRENGTHS, diagnose_sessions
 from .diagnosis.simulate import SimulatedBench, simulate_check_run, simulate_fit_run
@@ -127,15 +129,13 @@ def acquire_step(s: DemoSettings, result: DemoResult) -> None:
     result.acquire_seconds = time.perf_counter() - t0
 
 
-def identify_step(s: DemoSettings, result: DemoResult) -> str:
-    """Fit, store and score every method; returns the stored name of the report's model."""
-    check = open_run(result.check_path, allow_partial=False)
-    report_name = ""
+def identify_step(s: DemoSettings, check: Recording, result: DemoResult) -> ModelRecord:
+    """Fit, store and score on ``check`` every method; returns the record of the report's model."""
+    shown = None
     for method in s.methods:
         job = plan_job(result.fit_path, IdentifyOptions(method=method, measurements=s.measurements, seed=s.seed))
         report = fit_job(job)
-        store_model(job, report, force=False)
-        record = open_run(result.fit_path, allow_partial=False).session.models[job.store_as]
+        record = store_model(job, report, force=False)
         score = score_model(record, check)
         result.methods.append({
             "method": method,
@@ -145,11 +145,10 @@ def identify_step(s: DemoSettings, result: DemoResult) -> str:
             "validation_nrmse": score.nrmse,
             "seconds": report.seconds,
         })
-        if method == REPORT_METHOD or not report_name:
-            report_name = job.store_as
-    result.fit_points = int(open_run(result.fit_path, allow_partial=False).inputs.size)
-    result.check_points = int(check.inputs.size)
-    return report_name
+        if method == REPORT_METHOD or shown is None:
+            shown = record
+        result.fit_points = int(job.inputs.size)
+    return shown
 
 
 def diagnose_step(out: Path, result: DemoResult) -> None:
@@ -163,12 +162,10 @@ def diagnose_step(out: Path, result: DemoResult) -> None:
                        save_figure(candidates_figure(diagnosis), where / "candidates.png")]
 
 
-def report_step(model_name: str, out: Path, result: DemoResult) -> None:
+def report_step(record: ModelRecord, check: Recording, out: Path, result: DemoResult) -> None:
     from .session_report import SUMMARY, ScoredRun, build_report, write_report
 
     data = open_run(result.fit_path, allow_partial=False)
-    check = open_run(result.check_path, allow_partial=False)
-    record = data.session.models[model_name]
     built = build_report(ScoredRun(data, score_model(record, data, fitted_on=True)), record,
                          ScoredRun(check, score_model(record, check)))
     written = write_report(built, out / "report")
@@ -188,7 +185,9 @@ def run_demo(settings: DemoSettings, out: str | Path) -> DemoResult:
     out.mkdir(parents=True, exist_ok=True)
     result = DemoResult(settings, out, out / FIT_SESSION, out / CHECK_SESSION)
     acquire_step(settings, result)
-    model_name = identify_step(settings, result)
+    check = open_run(result.check_path, allow_partial=False)
+    result.check_points = int(check.inputs.size)
+    shown = identify_step(settings, check, result)
     diagnose_step(out, result)
-    report_step(model_name, out, result)
+    report_step(shown, check, out, result)
     return result

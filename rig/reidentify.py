@@ -251,12 +251,13 @@ def fit_job(job: IdentifyJob) -> FitReport:
     return dataclasses.replace(report, model=model)
 
 
-def store_model(job: IdentifyJob, report: FitReport, force: bool) -> None:
-    """Store the fitted model in the job's session under ``job.store_as``."""
+def store_model(job: IdentifyJob, report: FitReport, force: bool) -> ModelRecord:
+    """Store the fitted model in the job's session under ``job.store_as``; returns the record stored."""
     if job.store_as is None:
         raise ValueError("this job's model is not to be stored")
     record = ModelRecord.from_report(job.store_as, report, job.thermal_term, job.seed)
     add_model(job.path, record, force=force)
+    return record
 
 
 def result_dict(job: IdentifyJob, report: FitReport) -> dict:
