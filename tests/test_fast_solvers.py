@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+import scipy.sparse
 
 from identify import METHODS, IdentifyError, Problem, damped_oscillation, make_method, random_input
 from identify.dct import dct_matrix
@@ -182,3 +183,18 @@ def test_nothing_dense_is_built_on_the_fast_path():
     for method in DAMPED_METHODS:
         make_method(method).fit(problem)
     assert "regressor" not in vars(problem) and "square_lu" not in vars(problem)
+
+
+def test_gram_blocks_by_mask_are_the_principal_submatrices():
+    """The masked blocks of the projection are exactly ``G[idx][:, idx]``, empty rows included."""
+    from identify.methods import output_space
+
+    problem, _ = noisy_problem(10, 0.6, 4)
+    cells = problem.sparse_inverse[: problem.n_cells]
+    gram = scipy.sparse.csr_array(cells @ cells.T)
+    blocks = output_space._SymmetricBlocks(gram)
+    rng = np.random.default_rng(3)
+    for fraction in (0.1, 0.5, 1.0):
+        active = rng.random(problem.n_cells) < fraction
+        idx = np.flatnonzero(active)
+        np.testing.assert_array_equal(blocks.block(active).toarray(), gram[idx][:, idx].toarray())

@@ -112,7 +112,7 @@ def _active_set_projection(cells, y, active: np.ndarray, max_rounds: int = 40) -
     """
     active = active.copy()
     tol = 1e-10 * max(1.0, float(np.max(np.abs(y))))
-    gram = scipy.sparse.csr_array(cells @ cells.T)
+    gram = _SymmetricBlocks(scipy.sparse.csr_array(cells @ cells.T))
     cells_t = scipy.sparse.csr_array(cells.T)
     cy = cells @ y
     nu = np.zeros(cy.size)
@@ -120,7 +120,7 @@ def _active_set_projection(cells, y, active: np.ndarray, max_rounds: int = 40) -
         idx = np.flatnonzero(active)
         nu[:] = 0.0
         if idx.size:
-            block = _solve_gram(gram[idx][:, idx], -cy[idx])
+            block = _solve_gram(gram.block(active), -cy[idx])
             if block is None:  # dependent active rows
                 return None
             nu[idx] = block
@@ -134,11 +134,40 @@ def _active_set_projection(cells, y, active: np.ndarray, max_rounds: int = 40) -
     return None
 
 
+class _SymmetricBlocks:
+    """Principal blocks ``G_AA`` of a sparse symmetric matrix, as CSC, by masking its entries.
+
+    ``scipy.sparse`` fancy indexing (``G[idx][:, idx]``, then a CSR to CSC
+    conversion) costs more than the factorisation of the block at L = 30;
+    here a block is one boolean mask over the stored entries.  The CSR
+    arrays of a symmetric matrix are also its CSC arrays.
+    """
+
+    def __init__(self, gram: scipy.sparse.csr_array) -> None:
+        gram = scipy.sparse.csr_array(gram)
+        gram.sort_indices()
+        self.n = gram.shape[0]
+        self.rows = np.repeat(np.arange(self.n), np.diff(gram.indptr))
+        self.cols = gram.indices.astype(np.int64)
+        self.data = gram.data
+
+    def block(self, active: np.ndarray) -> scipy.sparse.csc_matrix:
+        """``G_AA`` for the boolean mask ``active`` ``(n,)``, rows and columns in index order."""
+        keep = active[self.rows] & active[self.cols]
+        renumber = np.cumsum(active) - 1
+        k = int(renumber[-1]) + 1
+        indptr = np.zeros(k + 1, dtype=np.int32)
+        np.cumsum(np.bincount(renumber[self.rows[keep]], minlength=k), out=indptr[1:])
+        return scipy.sparse.csc_matrix(
+            (self.data[keep], renumber[self.cols[keep]].astype(np.int32), indptr), shape=(k, k)
+        )
+
+
 def _solve_gram(gram, rhs: np.ndarray) -> np.ndarray | None:
-    """``gram^{-1} rhs`` by sparse LU (a block of the Gram matrix of a few-entries-per-row ``T``)."""
+    """``gram^{-1} rhs`` by sparse LU (a CSC block of the Gram matrix of a few-entries-per-row ``T``)."""
     try:
         small = {"panel_size": 1, "relax": 1} if gram.shape[0] < SMALL_GRAM else {}
-        return scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(gram), **SPD_LU, **small).solve(rhs)
+        return scipy.sparse.linalg.splu(gram, **SPD_LU, **small).solve(rhs)
     except RuntimeError:  # singular: dependent rows
         return None
 
