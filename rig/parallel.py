@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
+import multiprocessing.pool
 import os
 from typing import Callable, Iterator, Sequence, TypeVar
 
@@ -114,18 +115,29 @@ def run_parallel(
                 results.append(function(job))
                 bar.update()
             return results
-        with worker_environment():
-            pool = _context(preload).Pool(workers)
-        try:
-            results = []
+        results = []
+        with worker_pool(_context(preload), workers) as pool:
             for result in pool.imap(function, jobs):
                 results.append(result)
                 bar.update()
-        except BaseException:
-            pool.terminate()
-            raise
-        else:
-            pool.close()
-        finally:
-            pool.join()
         return results
+
+
+@contextlib.contextmanager
+def worker_pool(context: multiprocessing.context.BaseContext, workers: int) -> Iterator[multiprocessing.pool.Pool]:
+    """A pool of ``workers`` processes of ``context``, started in :func:`worker_environment`.
+
+    An error or an interrupt (Ctrl-C) in the block terminates the workers at
+    once; otherwise they are closed; either way they are joined.
+    """
+    with worker_environment():
+        pool = context.Pool(workers)
+    try:
+        yield pool
+    except BaseException:
+        pool.terminate()
+        raise
+    else:
+        pool.close()
+    finally:
+        pool.join()

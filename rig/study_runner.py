@@ -17,7 +17,7 @@ from tqdm import tqdm
 
 from identify.study import StudySetup, TrialResult, run_trials
 
-from .parallel import worker_environment
+from .parallel import worker_pool
 
 def _chunks(keys: list, workers: int) -> list[list]:
     size = max(1, min(8, math.ceil(len(keys) / (workers * 16))))
@@ -39,17 +39,8 @@ def run_study(setup: StudySetup, workers: int, progress: bool = True) -> list[Tr
     context = multiprocessing.get_context("spawn")
     with tqdm(total=len(keys), desc=f"study {setup.profile}", unit="run", dynamic_ncols=True,
               disable=None if progress else True) as bar:
-        with worker_environment():
-            pool = context.Pool(workers)
-        try:
+        with worker_pool(context, workers) as pool:
             for batch in pool.imap_unordered(_run_chunk, [(setup, c) for c in _chunks(keys, workers)]):
                 results.extend(batch)
                 bar.update(len(batch))
-        except BaseException:
-            pool.terminate()
-            raise
-        else:
-            pool.close()
-        finally:
-            pool.join()
     return results
