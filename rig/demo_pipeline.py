@@ -35,6 +35,7 @@ from sessions import ModelRecord
 from sessions.recording import Recording
 
 from .diagnosis.demo import DEMO_STRENGTHS, diagnose_sessions
+from .diagnosis.report import write_figures
 from .diagnosis.simulate import SimulatedBench, simulate_check_run, simulate_fit_run
 from .errors import UserError
 from .reidentify import IdentifyOptions, fit_job, plan_job, store_model
@@ -152,22 +153,15 @@ def identify_step(s: DemoSettings, check: Recording, result: DemoResult) -> Mode
 
 
 def diagnose_step(out: Path, result: DemoResult) -> None:
-    from .plots.diagnosis import candidates_figure, where_figure
-    from .plots.style import save_figure
-
     diagnosis, result.diagnosis_text, result.diagnosis = diagnose_sessions(result.fit_path, result.check_path)
-    where = out / "diagnosis"
-    where.mkdir(exist_ok=True)
-    result.figures += [save_figure(where_figure(diagnosis), where / "where.png"),
-                       save_figure(candidates_figure(diagnosis), where / "candidates.png")]
+    result.figures += write_figures(diagnosis, out / "diagnosis")
 
 
 def report_step(record: ModelRecord, check: Recording, out: Path, result: DemoResult) -> None:
-    from .session_report import SUMMARY, ScoredRun, build_report, write_report
+    from .session_report import SUMMARY, build_report, score_runs, write_report
 
-    data = open_run(result.fit_path, allow_partial=False)
-    built = build_report(ScoredRun(data, score_model(record, data, fitted_on=True)), record,
-                         ScoredRun(check, score_model(record, check)))
+    fitted, checked = score_runs(record, open_run(result.fit_path, allow_partial=False), check)
+    built = build_report(fitted, record, checked)
     written = write_report(built, out / "report")
     result.report_path = out / "report" / SUMMARY
     result.figures += [p for p in written if p.suffix == ".png"]

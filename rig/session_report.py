@@ -28,6 +28,7 @@ from sessions.recording import Recording
 
 from .plots import density_figure, loop_figure, residual_figure, save_figure, time_figure
 from .plots.style import DEFLECTION, HEATER_VOLTAGE, Quantity, display_unit, ratio_unit
+from .scoring import score_model
 
 #: Name of the Markdown summary in the report directory.
 SUMMARY = "report.md"
@@ -75,6 +76,15 @@ def run_figures(run: ScoredRun, record: ModelRecord, prefix: str, what: str) -> 
             title=f"Residual, {what.lower()}: RMSE {s.rmse:.3g} {display_unit(yq.unit)}, "
                   f"{100 * s.nrmse:.3g} % of range\n{name}"),
     }
+
+
+def score_runs(record: ModelRecord, data: Recording, validation: Recording | None = None
+               ) -> tuple[ScoredRun, ScoredRun | None]:
+    """The model's run ``data`` (scored as the run it was fitted on) and, if given, a validation run
+    (scored on the model's grid); one-line errors from :func:`rig.scoring.score_model`."""
+    fitted = ScoredRun(data, score_model(record, data, fitted_on=True))
+    checked = None if validation is None else ScoredRun(validation, score_model(record, validation))
+    return fitted, checked
 
 
 def build_report(fitted: ScoredRun, record: ModelRecord, validation: ScoredRun | None = None) -> Report:

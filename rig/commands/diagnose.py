@@ -14,7 +14,7 @@ from identify.methods import METHODS
 from ..curve_selection import CURVE_CHOICES
 from ..diagnosis.calibration import drift_agreement
 from ..diagnosis.loading import load_runs
-from ..diagnosis.report import to_json, to_text
+from ..diagnosis.report import to_json, to_text, write_figures
 from ..errors import UserError
 from ..output import print_json
 
@@ -78,13 +78,7 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     agreement = drift_agreement(result, loaded)
     written = []
     if out_dir is not None:
-        # matplotlib is imported here, not when the rig command starts
-        from ..plots.diagnosis import candidates_figure, where_figure
-        from ..plots.style import save_figure
-
-        out_dir.mkdir(parents=True, exist_ok=True)
-        written = [save_figure(where_figure(result), out_dir / "where.png"),
-                   save_figure(candidates_figure(result), out_dir / "candidates.png")]
+        written = write_figures(result, out_dir)
     if as_json:
         obj = to_json(result, fit_names, check_names, loaded.warnings, agreement)
         if written:

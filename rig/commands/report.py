@@ -8,7 +8,6 @@ import click
 
 from ..errors import UserError
 from ..output import print_json
-from ..scoring import score_model
 from ..session_input import choose_model, open_run, session_of
 
 
@@ -36,15 +35,12 @@ def report(session, out_dir, model_name, validation, partial, as_json):
     replaced, other files left alone.
     """
     # matplotlib is imported here, not when the rig command starts
-    from ..session_report import SUMMARY, ScoredRun, build_report, write_report
+    from ..session_report import SUMMARY, build_report, score_runs, write_report
 
     data = open_run(session, allow_partial=partial)
     record = choose_model(session_of(data, "rig report"), model_name)
-    fitted = ScoredRun(data, score_model(record, data, fitted_on=True))
-    checked = None
-    if validation is not None:
-        v_data = open_run(validation, allow_partial=partial)
-        checked = ScoredRun(v_data, score_model(record, v_data))
+    v_data = None if validation is None else open_run(validation, allow_partial=partial)
+    fitted, checked = score_runs(record, data, v_data)
     built = build_report(fitted, record, checked)  # every check and figure before writing anything
     out = default_out(session) if out_dir is None else out_dir
     if out.exists() and not out.is_dir():

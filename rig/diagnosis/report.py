@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -207,3 +208,15 @@ def _params_text(params: dict[str, Any], depth: int = 0) -> str:
         else:
             parts.append(f"{k} {v}")
     return ", ".join(parts)
+
+
+def write_figures(d: Diagnosis, out_dir: Path) -> list[Path]:
+    """``where.png`` (binned residuals before and after the chosen effect) and ``candidates.png`` in
+    ``out_dir`` (created); returns their paths."""
+    # matplotlib is imported here, not when the rig command starts
+    from ..plots.diagnosis import candidates_figure, where_figure
+    from ..plots.style import save_figure
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return [save_figure(where_figure(d), out_dir / "where.png"),
+            save_figure(candidates_figure(d), out_dir / "candidates.png")]
