@@ -188,3 +188,123 @@ class RegressorOperator(LinearOperator):
         e = self.increments
         L = self.grid.levels
         return scipy.sparse.csr_array((e.data, _flat_cells(L)[e.indices], e.indptr), shape=(e.shape[0], L * L))
+
+
+class AugmentedOperator(LinearOperator):
+    """``[S, C]``: the regressor ``S`` with extra dense columns ``C`` (an effect's terms), shape ``(n, P + k)``.
+
+    The parameter vector is ordered so that every sign-constrained entry
+    comes first, as the non-negative solvers expect::
+
+        w = (cells (n_cells), C's first ``k_nonneg`` coefficients (>= 0), mu0[, c_d], C's other coefficients)
+
+    ``extra`` is ``(n, k)`` (output units per unit coefficient); products
+    cost those of ``S`` plus ``O(n k)``.  :attr:`base_index` and
+    :attr:`extra_index` map the parts of ``w`` back.
+    """
+
+    def __init__(self, base: RegressorOperator, extra: np.ndarray, k_nonneg: int = 0) -> None:
+        extra = np.asarray(extra, dtype=float)
+        if extra.ndim != 2 or extra.shape[0] != base.shape[0]:
+            raise ValueError(f"extra columns must be ({base.shape[0]}, k), got {extra.shape}")
+        if not 0 <= k_nonneg <= extra.shape[1]:
+            raise ValueError(f"k_nonneg={k_nonneg} outside 0..{extra.shape[1]}")
+        self.base = base
+        self.extra = extra
+        self.k_nonneg = int(k_nonneg)
+        self.grid = base.grid
+        self.inputs = base.inputs
+        c, pb, k = base.grid.n_cells, base.shape[1], extra.shape[1]
+        order = np.concatenate([np.arange(c), pb + np.arange(self.k_nonneg), np.arange(c, pb),
+                                pb + np.arange(self.k_nonneg, k)])
+        #: Position in ``w`` of each column of ``[S, C]``: ``w[position[j]]`` multiplies column ``j``.
+        self.position = np.empty(pb + k, dtype=np.int64)
+        self.position[order] = np.arange(pb + k)
+        self.base_index = self.position[:pb]
+        self.extra_index = self.position[pb:]
+        super().__init__(np.float64, (base.shape[0], pb + k))
+
+    def _matmat(self, w: np.ndarray) -> np.ndarray:
+        w = np.asarray(w, dtype=float)
+        return self.base._matmat(w[self.base_index]) + self.extra @ w[self.extra_index]
+
+    def _matvec(self, w: np.ndarray) -> np.ndarray:
+        return self._matmat(np.asarray(w, dtype=float).reshape(-1, 1)).ravel()
+
+    def _rmatmat(self, r: np.ndarray) -> np.ndarray:
+        r = np.asarray(r, dtype=float)
+        out = np.empty((self.shape[1], r.shape[1]))
+        out[self.base_index] = self.base._rmatmat(r)
+        out[self.extra_index] = self.extra.T @ r
+        return out
+
+    def _rmatvec(self, r: np.ndarray) -> np.ndarray:
+        return self._rmatmat(np.asarray(r, dtype=float).reshape(-1, 1)).ravel()
+
+    def _adjoint(self) -> LinearOperator:
+        return LinearOperator(self.shape[::-1], matvec=self._rmatvec, rmatvec=self._matvec,
+                              matmat=self._rmatmat, rmatmat=self._matmat, dtype=self.dtype)
+
+    rows = RegressorOperator.rows
+
+    def dense_rows(self, rows: np.ndarray | slice | None = None) -> np.ndarray:
+        """Rows of the dense ``[S, C]`` in the parameter order above, ``(len(rows), P + k)``."""
+        picked = np.arange(self.shape[0])[rows if rows is not None else slice(None)]
+        out = np.empty((picked.size, self.shape[1]))
+        out[:, self.base_index] = self.base.dense_rows(picked)
+        out[:, self.extra_index] = self.extra[picked]
+        return out
+
+    def column_norms(self) -> np.ndarray:
+        out = np.empty(self.shape[1])
+        out[self.base_index] = self.base.column_norms()
+        out[self.extra_index] = np.linalg.norm(self.extra, axis=0)
+        return out
+
+
+class RowScaledOperator(LinearOperator):
+    """``diag(d) A``: every row of an operator ``A`` (a :class:`RegressorOperator` or
+    :class:`AugmentedOperator`) multiplied by ``d`` ``(n,)``.
+
+    A Gauss--Newton step through a sensor map ``y = g(u)`` needs it: the
+    output's derivative with respect to the model's parameters is ``g'(u)``
+    times the model's (:mod:`identify.effects.joint`).
+    """
+
+    def __init__(self, base: LinearOperator, scale: np.ndarray) -> None:
+        scale = np.asarray(scale, dtype=float)
+        if scale.shape != (base.shape[0],) or not np.all(np.isfinite(scale)):
+            raise ValueError(f"row scale must be {base.shape[0]} finite numbers")
+        self.base = base
+        self.scale = scale
+        self.grid = base.grid
+        self.inputs = base.inputs
+        for name in ("base_index", "extra_index", "position"):
+            if hasattr(base, name):
+                setattr(self, name, getattr(base, name))
+        super().__init__(np.float64, base.shape)
+
+    def _matmat(self, w: np.ndarray) -> np.ndarray:
+        return self.scale[:, None] * self.base._matmat(np.asarray(w, dtype=float))
+
+    def _matvec(self, w: np.ndarray) -> np.ndarray:
+        return self._matmat(np.asarray(w, dtype=float).reshape(-1, 1)).ravel()
+
+    def _rmatmat(self, r: np.ndarray) -> np.ndarray:
+        return self.base._rmatmat(self.scale[:, None] * np.asarray(r, dtype=float))
+
+    def _rmatvec(self, r: np.ndarray) -> np.ndarray:
+        return self._rmatmat(np.asarray(r, dtype=float).reshape(-1, 1)).ravel()
+
+    def _adjoint(self) -> LinearOperator:
+        return LinearOperator(self.shape[::-1], matvec=self._rmatvec, rmatvec=self._matvec,
+                              matmat=self._rmatmat, rmatmat=self._matmat, dtype=self.dtype)
+
+    rows = RegressorOperator.rows
+
+    def dense_rows(self, rows: np.ndarray | slice | None = None) -> np.ndarray:
+        picked = np.arange(self.shape[0])[rows if rows is not None else slice(None)]
+        return self.scale[picked, None] * self.base.dense_rows(picked)
+
+    def column_norms(self) -> np.ndarray:
+        return np.linalg.norm(self.dense_rows(), axis=0)

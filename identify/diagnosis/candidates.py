@@ -43,7 +43,7 @@ import numpy as np
 
 from ..model import PreisachModel
 from .base import BaseFit
-from .runs import Run
+from ..runs import Run
 
 #: Knot spacing (s) of the drift candidates' cubic splines in session time (a penalised spline:
 #: the roughness penalty, chosen by cross-validation, decides how wiggly the drift may be).

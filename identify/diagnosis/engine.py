@@ -32,7 +32,7 @@ from .base import BaseFit, fit_base, uncertain_directions
 from .binning import Binning, bin_residuals
 from .candidates import Candidate, Columns, Context, library
 from .noise import NoiseEstimate, estimate_noise, floor_per_point
-from .runs import Run
+from ..runs import Run
 from .scoring import Blocks, Design, bootstrap_mse, cross_validate, make_blocks, onehot
 from .verdict import Evidence, Verdict
 

@@ -73,11 +73,11 @@ def solve_iterative(problem: Problem, weight: float | None) -> tuple[np.ndarray,
     scale = float(np.max(np.abs(y_raw))) or 1.0
     y = y_raw / scale
     rows = problem.rows
-    n, p = problem.n_cells, problem.n_parameters
+    n, p = problem.n_nonneg, problem.n_parameters
     op = problem.operator
-    # free columns (ones, v) are rescaled to the size of a cell column
+    # the columns that are not cells (ones, v, effect terms) are rescaled to the size of a cell column
     col_scale = np.ones(p)
-    for k in range(n, p):
+    for k in range(problem.n_cells, p):
         e = np.zeros(p)
         e[k] = 1.0
         norm = float(np.linalg.norm(np.asarray(op.matvec(e)).ravel()[rows]))
