@@ -117,6 +117,28 @@ def test_creep_after_one_step_is_its_kernel_times_the_output_change():
     assert crept[1] - clean[1] == pytest.approx(0.1 * (clean[1] - clean[0]) * -math.expm1(-1.0), abs=1e-12)
 
 
+def test_creep_with_excursion_memory_relaxes_towards_the_excursion_from_where_it_is():
+    p = params(1)
+    form = {"kernel": "exponential", "tau_s": 10.0, "sign": -1.0, "driver": "total",
+            "amplitude_power": 1.0, "asymmetry": 0.0, "memory": "excursion"}
+    v = [0.0, 4.5, 5.0, 4.0]  # the output rises, rises (through the transition), falls
+    u = drive(P.make_device(p, []), v, dwell_s=10.0)
+    assert u[1] > u[0] and u[2] > u[1] and u[3] < u[2]
+    crept = drive(P.make_device(p, [effect("creep", 0.1, form)]), v, dwell_s=10.0)
+    k = -math.expm1(-1.0)
+    c1 = (u[1] - u[0]) * k
+    c2 = c1 + ((u[2] - u[0]) - c1) * k  # same direction: the excursion grows from the last reversal
+    c3 = c2 + ((u[3] - u[2]) - c2) * k  # reversal: a new excursion starts at the previous output
+    np.testing.assert_allclose(crept - u, -0.1 * np.array([0.0, c1, c2, c3]), atol=1e-12)
+
+
+def test_interaction_bound_keeps_the_loop_gain_below_one_half():
+    p = params(2)
+    for domain in ("voltage", "temperature"):
+        k = P.interaction_bound(p, {"domain": domain})
+        assert k > 0 and P.interaction_bound(p, {"domain": domain}, loop_gain=1.0) == pytest.approx(2 * k)
+
+
 def test_slow_curves_start_at_zero_and_differ_between_runs_not_between_calls():
     for k in range(20):
         shape = P.draw_slow_shape(G.stream(k, "test"))
@@ -183,8 +205,8 @@ def test_strength_solver_reaches_the_target_or_says_it_cannot():
         return 0.3 * s**1.7
 
     s, g, n = G.solve_strength(gap, 1.0, 0.015, None)
-    assert abs(g / 0.015 - 1) <= G.GAP_RTOL and n == len(calls) <= 6
-    s, g, _ = G.solve_strength(lambda s: s / (1 + s), 0.01, 0.5, 10.0)
+    assert abs(g / 0.015 - 1) <= G.GAP_RTOL and n == len(calls) <= 6 and g == gap(s)
+    _, g, _ = G.solve_strength(lambda s: s / (1 + s), 0.01, 0.5, 10.0)
     assert g == pytest.approx(0.5, rel=G.GAP_RTOL)
     with pytest.raises(G.Unreachable):
         G.solve_strength(lambda s: s / (1 + s), 0.01, 0.95, 10.0)

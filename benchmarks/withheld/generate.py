@@ -360,9 +360,12 @@ def calibrate(bench: Bench, family: str, level: float) -> Calibration:
     cal = Calibration(bench.seed, family, float(level), target_um=target)
     for attempt in range(MAX_ATTEMPTS):
         form = draw_form(bench.seed, family, attempt)
+        bound = fam.max_strength
+        if family == "interaction":  # a stable coupling: the loop gain stays below one half
+            bound = physics.interaction_bound(bench.config(0, noise=False).sim, form)
         try:
             s, g, n = solve_strength(lambda x, form=form: bench.gap_um({family: (form, x)}), fam.guess, target,
-                                     fam.max_strength)
+                                     bound)
         except Unreachable as exc:
             cal.rejected.append({"attempt": attempt, "form": form, "reason": str(exc)})
             continue
@@ -413,25 +416,27 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--manifest", type=Path, help="write the draws (and with --calibrate the calibrations) here")
     ap.add_argument("--calibrate", action="store_true", help="also calibrate every family at --levels (slow)")
     ap.add_argument("--levels", default="3", help="gap levels in noise levels, comma-separated [3]")
+    ap.add_argument("--workers", type=int, default=2, help="worker processes for --calibrate [2]")
     args = ap.parse_args(argv)
     d = draws(args.split, args.seeds)
     out: dict[str, Any] = {"split": args.split, "seeds": [r["seed"] for r in d], "draws": d,
                            "draws_digest": digest(d)}
     print(f"{args.split}: seeds {out['seeds'][0]}..{out['seeds'][-1]} ({len(d)}), draws digest {out['draws_digest']}")
     if args.calibrate:
+        from rig.parallel import run_parallel
+
+        from .jobs import calibration_job
+
         levels = [float(x) for x in args.levels.split(",")]
-        cals = []
-        for s in out["seeds"]:
-            bench = Bench(s)
-            for fam in FAMILIES:
-                for lv in levels:
-                    c = calibrate(bench, fam, lv)
-                    cals.append(c.to_json())
-                    print(f"  seed {s} {fam:20s} {lv:g} sigma: attempt {c.attempt}, gap {c.gap_um or 0:.4g} um, "
-                          f"{c.evaluations} evaluations, {c.seconds:.1f} s, {c.status}", file=sys.stderr)
+        jobs = [(s, fam, lv) for s in out["seeds"] for fam in FAMILIES for lv in levels]
+        cals = run_parallel(calibration_job, jobs, args.workers, desc="calibrate", unit="effect",
+                            preload=["benchmarks.withheld.jobs"])
+        for c in cals:
+            print(f"  seed {c['seed']} {c['family']:20s} {c['level']:g} sigma: attempt {c['attempt']}, "
+                  f"gap {c['gap_um'] or 0:.4g} um, strength {c['strength'] or 0:.4g}, {c['status']}", file=sys.stderr)
         out["calibrations"] = cals
         out["forms_digest"] = forms_digest(cals)
-        print(f"forms digest {out['forms_digest']}")
+        print(f"forms digest {out['forms_digest']} (levels {levels})")
     if args.manifest:
         args.manifest.write_text(json.dumps(out, indent=1))
     return 0

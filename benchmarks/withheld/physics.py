@@ -27,6 +27,7 @@ deflections in um, temperatures in K.  See ``README.md`` for the families.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -37,6 +38,7 @@ from scipy.optimize import brentq
 
 from drivers.sim import Effect, SimParams, SimVO2
 from drivers.sim.effects import Moment
+from identify import PreisachModel
 from identify.memory import CellStates
 
 #: Names the diagnosis library is meant to cover.
@@ -366,22 +368,29 @@ def creep_kernel(form: dict[str, Any]) -> Callable[[np.ndarray], np.ndarray]:
 
 
 class Creep(Withheld):
-    """The deflection relaxes after every change of the output (Boltzmann superposition of steps).
+    """The deflection relaxes after every change of the output.
 
-    Each change ``d`` of the driving quantity (the whole deflection, or its
-    phase-transition part) at the time of the set-point that caused it adds
-    ``strength * sign * g(d) * Phi(t - t_k)``, ``g(d) = d (1 + asym sgn d)
-    (|d| / 10 um)^(p - 1)``; ``Phi`` is the drawn kernel.
+    The driving quantity is the whole deflection or its phase-transition
+    part; a change of it is dated at the set-point that caused it (the first
+    reading after the power-on sets the reference).  ``g(d) = d (1 + asym sgn d)
+    (|d| / 10 um)^(p - 1)``, ``Phi`` the drawn kernel, ``c = strength * sign``:
+
+    * ``superposition`` (Boltzmann): every change ``d_k`` at ``t_k`` adds
+      ``c g(d_k) Phi(t - t_k)``;
+    * ``excursion``: after every change the creep moves from where it is
+      towards ``c g(E)``, ``E`` the output's excursion since its last
+      reversal, along ``Phi`` restarted at the change.
     """
 
     name = family = "creep"
 
     def setup(self) -> None:
         self.phi = creep_kernel(self.form)
-        self.sign = float(self.form["sign"])
+        self.c = float(self.form["sign"])
         self.p = float(self.form["amplitude_power"])
         self.asym = float(self.form["asymmetry"])
         self.phase_only = self.form["driver"] == "phase"
+        self.excursion = self.form.get("memory", "superposition") == "excursion"
 
     def reset(self) -> None:
         self.t_set = 0.0
@@ -389,6 +398,16 @@ class Creep(Withheld):
         self.times: list[float] = []
         self.amps: list[float] = []
         self._arrays = (np.zeros(0), np.zeros(0))
+        # excursion memory: output at the last reversal, direction, creep at the last change and its target
+        self.anchor = 0.0
+        self.dir = 0.0
+        self.c0 = self.target = self.t0 = 0.0
+
+    def _g(self, d: float) -> float:
+        return d * (1.0 + self.asym * math.copysign(1.0, d)) * (abs(d) / 10.0) ** (self.p - 1.0) if d else 0.0
+
+    def _excursion_value(self, t: float) -> float:
+        return self.c0 + (self.target - self.c0) * float(self.phi(np.array(max(t - self.t0, 0.0))))
 
     def on_setpoint(self, t_s: float, old_V: float, new_V: float) -> None:
         if new_V != old_V:
@@ -397,18 +416,26 @@ class Creep(Withheld):
     def deflection(self, um: float, moment: Moment) -> float:
         drive = self.device.phase_um() if (self.phase_only and self.device is not None) else um
         if self.last is None:
-            self.last = drive
+            self.last = self.anchor = drive
         d = drive - self.last
         if d != 0.0:
-            g = d * (1.0 + self.asym * math.copysign(1.0, d)) * (abs(d) / 10.0) ** (self.p - 1.0)
-            self.times.append(self.t_set)
-            self.amps.append(g)
-            self._arrays = (np.array(self.times), np.array(self.amps))
+            if self.excursion:
+                direction = math.copysign(1.0, d)
+                if direction != self.dir:
+                    self.anchor, self.dir = self.last, direction
+                self.c0, self.t0 = self._excursion_value(self.t_set), self.t_set
+                self.target = self._g(drive - self.anchor)
+            else:
+                self.times.append(self.t_set)
+                self.amps.append(self._g(d))
+                self._arrays = (np.array(self.times), np.array(self.amps))
             self.last = drive
+        if self.excursion:
+            return um + self.strength * self.c * self._excursion_value(moment.t_s)
         t, a = self._arrays
         if not t.size:
             return um
-        return um + self.strength * self.sign * float(a @ self.phi(np.maximum(moment.t_s - t, 0.0)))
+        return um + self.strength * self.c * float(a @ self.phi(np.maximum(moment.t_s - t, 0.0)))
 
 
 def draw_creep(rng: np.random.Generator, base: SimParams) -> dict[str, Any]:
@@ -427,6 +454,7 @@ def draw_creep(rng: np.random.Generator, base: SimParams) -> dict[str, Any]:
     if kind in ("logarithmic", "andrade"):
         f["horizon_s"] = 3600.0
     f.update(sign=float(rng.choice([-1.0, 1.0])), driver=pick(rng, ("total", "phase")),
+             memory="excursion" if rng.random() < 0.35 else "superposition",
              amplitude_power=float(rng.uniform(0.6, 1.6)) if rng.random() < 0.5 else 1.0,
              asymmetry=float(rng.uniform(-0.5, 0.5)) if rng.random() < 0.5 else 0.0)
     return f
@@ -711,6 +739,21 @@ class Interaction(Withheld):
         return float(brentq(g, lo, hi, xtol=1e-13, rtol=4 * np.finfo(float).eps, maxiter=200))
 
 
+def interaction_bound(params: SimParams, form: dict[str, Any], loop_gain: float = 0.5) -> float:
+    """The largest coupling (V or K) whose loop gain ``|k| d(u/A)/dx`` stays below ``loop_gain`` on the
+    major loop's branches: beyond, the self-consistent input would jump (an avalanche), not hysteresis."""
+    dev = SimVO2(dataclasses.replace(params, effects={}))
+    g = dev.grid
+    phase = PreisachModel(g, dev.density, mu0=0.0, c_d=0.0)
+    amp = float(np.abs(dev.density).sum())
+    xs = np.linspace(g.v_min, g.v_max, 40 * g.levels + 1)
+    ascending = phase.predict(xs)
+    descending = phase.predict(np.concatenate([[g.v_max], xs[::-1]]))[1:][::-1]
+    axis = params.kelvin_per_V2 * xs**2 if form["domain"] == "temperature" else xs
+    slope = max(float(np.max(np.abs(np.diff(b / amp) / np.diff(axis)))) for b in (ascending, descending))
+    return loop_gain / slope
+
+
 def draw_interaction(rng: np.random.Generator, base: SimParams) -> dict[str, Any]:
     return {"sign": float(rng.choice([-1.0, 1.0])), "domain": pick(rng, ("voltage", "temperature"))}
 
@@ -901,7 +944,8 @@ FAMILIES: dict[str, Family] = {f.name: f for f in [
     Family("joule_power", draw_joule, JoulePower, 0.2, "um"),
     Family("sensor_nonlinearity", draw_sensor, SensorNonlinearity, 0.1, "spot travel / detector range", 2.0),
     Family("reversible", draw_reversible, Reversible, 0.2, "um"),
-    Family("interaction", draw_interaction, Interaction, 0.005, "V or K at the full phase swing", 2.0),
+    # its bound depends on the device: generate.calibrate uses interaction_bound
+    Family("interaction", draw_interaction, Interaction, 0.005, "V or K at the full phase swing"),
     Family("first_point", draw_first_point, FirstPoint, 0.02, "um"),
     Family("backlash", draw_backlash, Backlash, 0.01, "um", 5.0, False),
     Family("accommodation", draw_accommodation, Accommodation, 0.002, "relative", 0.5, False),

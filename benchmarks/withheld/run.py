@@ -38,6 +38,7 @@ from .generate import (
     PAIRS_PER_SEED,
     SPLITS,
     digest,
+    draw_base,
     draws,
     forms_digest,
     make_cases,
@@ -242,7 +243,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2, help="worker processes [2]")
     ap.add_argument("--cold", action="store_true", help="diagnose in a fresh 'python -m rig' process per case")
     ap.add_argument("--keep", type=Path, help="keep every case's sessions and diagnosis JSON under this directory")
-    ap.add_argument("--json", dest="json_out", type=Path, help="write cases, calibrations (the manifest) and tables")
+    ap.add_argument("--json", dest="json_out", type=Path, help="write the cases, the manifest and the tables")
+    ap.add_argument("--manifest", type=Path, help="write the manifest only: every base device, drawn form, strength "
+                                                   "and achieved gap")
     args = ap.parse_args(argv)
     try:
         levels = [float(x) for x in args.levels.split(",") if x.strip()]
@@ -287,14 +290,20 @@ def main(argv: list[str] | None = None) -> int:
     for r in errors[:10]:
         print(f"  {r['key']}: {r.get('status')}: {r.get('error')}")
     print(f"Split {args.split}: draws digest {ddig}, forms digest {fdig} (seeds {n_seeds}, levels {levels})")
+    manifest = {"split": args.split, "seeds": sorted({c.seed for c in cases}), "levels": levels,
+                "draws_digest": ddig, "forms_digest": fdig,
+                "bases": {str(s): draw_base(s) for s in sorted({c.seed for c in cases})},
+                "families": {k: {"in_library": v.in_library, "unit": v.unit} for k, v in FAMILIES.items()},
+                "cases": [{"key": c.key, "effects": list(c.effects)} for c in cases], "calibrations": cal_rows}
+    if args.manifest:
+        args.manifest.write_text(json.dumps(manifest, indent=1, default=float))
+        print(f"wrote {args.manifest}")
     if args.json_out:
         args.json_out.write_text(json.dumps({
             "meta": {"split": args.split, "seeds": n_seeds, "levels": levels, "effects": sorted(selection),
                      "pairs_per_seed": args.pairs_per_seed, "workers": args.workers, "cold": args.cold,
-                     "draws_digest": ddig, "forms_digest": fdig, "wall_s": wall, "calibration_s": t_cal,
-                     "git": _git(), "families": {k: {"in_library": v.in_library, "unit": v.unit}
-                                                 for k, v in FAMILIES.items()}},
-            "tables": t, "cases": rows, "calibrations": cal_rows,
+                     "wall_s": wall, "calibration_s": t_cal, "git": _git()},
+            "tables": t, "cases": rows, "manifest": manifest,
         }, indent=1, default=float))
         print(f"wrote {args.json_out}")
     return 0
