@@ -429,8 +429,8 @@ def main(argv: list[str] | None = None) -> int:
 
         levels = [float(x) for x in args.levels.split(",")]
         jobs = [(s, fam, lv) for s in out["seeds"] for fam in FAMILIES for lv in levels]
-        cals = run_parallel(calibration_job, jobs, args.workers, desc="calibrate", unit="effect",
-                            preload=["benchmarks.withheld.jobs"])
+        # no preload: the fork server must not import this module before it runs as the main one
+        cals = run_parallel(calibration_job, jobs, args.workers, desc="calibrate", unit="effect")
         for c in cals:
             print(f"  seed {c['seed']} {c['family']:20s} {c['level']:g} sigma: attempt {c['attempt']}, "
                   f"gap {c['gap_um'] or 0:.4g} um, strength {c['strength'] or 0:.4g}, {c['status']}", file=sys.stderr)
