@@ -175,11 +175,10 @@ class WithheldVO2(SimVO2):
         st.grid, st.curve, st.areas = self.grid, self._states.curve.copy(), self._states.areas.copy()
         return st
 
-    def phase_after(self, x_V: float, weights: np.ndarray | None = None) -> float:
+    def phase_after(self, x_V: float) -> float:
         """The phase part (um) if the input moved monotonically from where it is to ``x_V`` now (no change made)."""
         st = self._trial_states()
-        areas = st.apply(float(self.grid.coordinates(x_V)))
-        return float(areas @ (self.density if weights is None else weights))
+        return float(st.apply(float(self.grid.coordinates(x_V))) @ self.density)
 
     # -------------------------------------------------------- physics
     def _advance(self, t: float) -> None:
