@@ -22,7 +22,8 @@ from sessions.schema import LIBVER, SAMPLE_DTYPE
 from sessions.writer import write_layout
 
 from rig.watch.progress import planned_waits, progress
-from rig.watch.refit import NO_THERMAL, RefitJob, Worker, refit
+from rig.watch.refit import NO_THERMAL, RefitJob, refit
+from rig.watch.worker import Worker
 from rig.watch.server import Site, WatchServer
 from rig.watch.tail import SessionTail
 from rig.watch.watcher import SessionWatch, WatchOptions, Workers
@@ -116,9 +117,13 @@ def _track_like_session(path: Path, n: int) -> np.ndarray:
 def test_a_session_with_extra_columns_and_its_own_kind_is_watched_like_any_other(tmp_path):
     path = tmp_path / "track.h5"
     rows = _track_like_session(path, 40)
-    watch = SessionWatch(path, WatchOptions(method="ls"), Workers(Worker(refit)))
-    watch.step(render=False)
-    state = watch.build_state()
+    workers = Workers.start(WatchOptions(method="ls"))
+    try:
+        watch = SessionWatch(path, WatchOptions(method="ls"), workers)
+        watch.step(render=False)
+        state = watch.build_state()
+    finally:
+        workers.close()
     np.testing.assert_array_equal(watch.tail.samples["output"], rows["output"])
     assert state["status"] == "aborted" and state["excitation"]["kind"] == "track"
     p = state["progress"]
@@ -279,13 +284,17 @@ def test_the_page_its_state_and_figures_and_nothing_that_acts(tmp_path):
                                        "input_unit": "V", "output_unit": "µm"}
         assert state["model"]["status"] == "fitted" and state["model"]["n_used"] == 30
         assert state["model"]["rmse"] < 1e-6  # noise-free data, more points than cells: exact
+        assert state["drawn"]["time"] == state["drawn"]["loop"] == state["drawn"]["model"] == 30
         status, headers, svg = get(s.base + "figure/loop.svg")
         assert status == 200 and headers["Content-Type"] == "image/svg+xml"
         assert b"<text" in svg and "heater voltage (V)".encode() in svg and "deflection (µm)".encode() in svg
-        # a long poll returns as soon as a newer state exists, and waits (bounded) when none does
+        # a long poll returns at once when a newer state exists, and waits (bounded) when none does
         t0 = time.monotonic()
-        get(s.base + f"api/state?after={state['version']}&wait=0.5")
-        assert 0.4 < time.monotonic() - t0 < 5
+        now = json.loads(get(s.base + f"api/state?after={state['version'] - 1}&wait=5")[2])
+        assert now["version"] >= state["version"] and time.monotonic() - t0 < 1
+        t0 = time.monotonic()
+        same = json.loads(get(s.base + f"api/state?after={now['version'] + 1000}&wait=0.5")[2])
+        assert 0.45 < time.monotonic() - t0 < 5 and same["version"] >= now["version"]
         assert get(s.base + "api/state?after=x")[0] == 400
         for method in ("POST", "PUT", "DELETE"):
             import urllib.request

@@ -162,19 +162,21 @@ def session_fds(pid: int, path: Path) -> list[int]:
 
 
 # ------------------------------------------------------------------ the browser
-def browser_or_skip():
-    """A headless Chromium driven by selenium, or ``pytest.skip`` saying what is missing."""
-    import pytest
+class NoBrowser(Exception):
+    """Headless Chromium cannot be driven here; the message says what is missing."""
 
+
+def start_browser():
+    """A headless Chromium driven by selenium, or :class:`NoBrowser` saying what is missing."""
     exe = next((p for p in CHROMIUM if os.access(p, os.X_OK)), None)
     driver = next((p for p in CHROMEDRIVER if os.access(p, os.X_OK)), None)
     if exe is None or driver is None:
-        pytest.skip("no Chromium: install Debian's chromium and chromium-driver to run the browser tests")
+        raise NoBrowser("no Chromium: install Debian's chromium and chromium-driver to run the browser tests")
     try:
         from selenium import webdriver
         from selenium.webdriver.chrome.service import Service
     except ImportError:
-        pytest.skip("selenium is not installed (pip install -e '.[test]')")
+        raise NoBrowser("selenium is not installed (pip install -e '.[test]')") from None
     os.environ.setdefault("SE_OFFLINE", "true")  # selenium's manager must never fetch a driver or a browser
     options = webdriver.ChromeOptions()
     options.binary_location = exe
@@ -185,6 +187,16 @@ def browser_or_skip():
     drv.set_page_load_timeout(30)
     drv.profile_dir = profile
     return drv
+
+
+def browser_or_skip():
+    """:func:`start_browser`, or ``pytest.skip`` with the reason."""
+    import pytest
+
+    try:
+        return start_browser()
+    except NoBrowser as exc:
+        pytest.skip(str(exc))
 
 
 def close_browser(drv) -> None:

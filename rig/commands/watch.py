@@ -39,7 +39,7 @@ NICE = 10
 @click.option("--check", "check_path", type=click.Path(dir_okay=False, path_type=Path),
               help="The watched session is an identification run: show where its model misses on this check run "
                    "(once it exists).")
-@click.option("--poll", "poll_s", type=float, default=0.5, show_default=True,
+@click.option("--poll", "poll_s", type=float, default=0.25, show_default=True,
               help="Seconds between two looks at the file.")
 @click.option("--json", "as_json", is_flag=True,
               help="Once listening, print one JSON object: url, host, port, token, target.")

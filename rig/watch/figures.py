@@ -18,11 +18,16 @@ Two details make the SVG fit a live page:
   kilobytes instead of 20,000 vector markers for the browser to lay out.
 
 Every function returns the SVG document as bytes; none touches files.
+:func:`draw` runs one of them for a :class:`DrawJob` on the watch's drawing
+worker process, so that drawing a 20,000-point figure never holds up the
+server's answers.
 """
 
 from __future__ import annotations
 
 import io
+from dataclasses import dataclass, field
+from typing import Any
 
 import matplotlib
 import numpy as np
@@ -78,3 +83,20 @@ def where_svg(diagnosis) -> bytes:
     from ..plots.diagnosis import where_figure
 
     return svg_bytes(where_figure(diagnosis))
+
+
+#: The figures of the page, by name: the function that draws each.
+FIGURES = {"time": time_svg, "loop": loop_svg, "model": model_svg, "where": where_svg}
+
+
+@dataclass(frozen=True, eq=False)
+class DrawJob:
+    """Draw figure ``name`` (:data:`FIGURES`) with these keyword arguments (arrays, quantities, a title)."""
+
+    name: str
+    kwargs: dict[str, Any] = field(default_factory=dict)
+
+
+def draw(job: DrawJob) -> bytes:
+    """The SVG of ``job`` (runs on the drawing worker)."""
+    return FIGURES[job.name](**job.kwargs)

@@ -42,6 +42,8 @@ from .watcher import SessionWatch, WatchOptions, Workers
 COOKIE = "rig_watch_token"
 #: Longest long poll a page may ask for (s).
 MAX_WAIT_S = 25.0
+#: How often a busy worker is asked for its result (s): a finished figure is published this soon.
+WORKER_CHECK_S = 0.02
 #: A directory's session not looked at for this long is closed (s).
 IDLE_CLOSE_S = 600.0
 #: Files of a directory listed as sessions.
@@ -75,12 +77,13 @@ def asset(name: str) -> bytes:
 class Site:
     """What is served: one session, or the sessions of a directory; and the thread that keeps them current.
 
-    The publishing thread steps every open :class:`SessionWatch` each
-    ``poll_s`` seconds (sooner when a page asks for one that has not been
-    drawn yet); all drawing happens on it, one figure at a time.
+    The publishing thread steps every open :class:`SessionWatch`: it reads
+    the files every ``poll_s`` seconds (sooner when a page arrives), and
+    between those looks collects what the workers finished -- a fit, a
+    diagnosis, a figure -- as soon as it is ready.
     """
 
-    def __init__(self, target: Path, options: WatchOptions, workers: Workers, poll_s: float = 0.5) -> None:
+    def __init__(self, target: Path, options: WatchOptions, workers: Workers, poll_s: float = 0.25) -> None:
         self.target = Path(target)
         self.directory = self.target.is_dir()
         self.options = options
@@ -110,21 +113,28 @@ class Site:
         self._wake.set()
 
     def _run(self) -> None:
+        next_poll = 0.0
         while not self._stop.is_set():
+            now = time.monotonic()
+            poll = now >= next_poll
+            if poll:
+                next_poll = now + self.poll_s
             with self._lock:
                 watches = list(self.watches.items())
             for name, w in watches:
                 if self._stop.is_set():
                     return
                 try:
-                    w.step()
+                    w.step(poll_file=poll)
                 except Exception as exc:  # keep serving; the page shows the error
                     w.tail.error = f"internal error: {type(exc).__name__}: {exc}"
                 if self.directory and time.monotonic() - w.viewed_at > IDLE_CLOSE_S:
                     with self._lock:
                         self.watches.pop(name, None)
                     w.tail.close()
-            self._wake.wait(self.poll_s)
+            # while a worker is busy, look for its result often; else sleep until the next poll of the files
+            wait = WORKER_CHECK_S if self.workers.busy else next_poll - time.monotonic()
+            self._wake.wait(max(0.0, min(wait, next_poll - time.monotonic())))
             self._wake.clear()
 
     # ------------------------------------------------------------------ sessions

@@ -27,7 +27,8 @@ from ..output import jsonable
 from ..plots.style import Quantity, display_unit, ratio_unit
 from . import figures
 from .progress import progress
-from .refit import MIN_POINTS, ModelSoFar, RefitJob, WhereJob, WhereSoFar, Worker
+from .refit import MIN_POINTS, ModelSoFar, RefitJob, WhereJob, WhereSoFar
+from .worker import Worker
 from .tail import SessionTail
 
 #: A page that asked for the state within this many seconds is being looked at: keep its figures drawn.
@@ -38,6 +39,8 @@ FIRST_STATE_S = 5.0
 EVENTS_SHOWN = 8
 #: Fewest measured check points before the diagnosis is tried.
 MIN_CHECK_POINTS = 20
+#: The page's figures, in the order they are drawn when several are due.
+FIGURE_ORDER = ("time", "loop", "model", "where")
 #: Levels of the model so far when neither the session nor the options give a grid.
 DEFAULT_LEVELS = 30
 #: Fewest seconds between two diagnoses of the same pair of runs (each takes seconds of a core).
@@ -69,29 +72,34 @@ class WatchOptions:
 
 @dataclass
 class Workers:
-    """The worker processes shared by every watched session (see :class:`~rig.watch.refit.Worker`)."""
+    """The worker processes shared by every watched session (:class:`~rig.watch.worker.Worker`): the
+    model so far, the drawing, and the diagnosis (with ``fit`` or ``check`` only)."""
 
     refit: Worker
+    draw: Worker
     where: Worker | None = None
-    owner_refit: Any = None
-    owner_where: Any = None
 
     @classmethod
     def start(cls, options: WatchOptions) -> "Workers":
-        """The workers ``options`` need: the refit's always, the diagnosis's with ``fit`` or ``check``
-        (the fork server starts now, each worker process with its first job)."""
+        """The workers ``options`` need (the fork server starts now, each worker process with its first job)."""
         from ..parallel import start_workers
         from .refit import refit, where
 
         diagnosing = options.fit is not None or options.check is not None
         preload = ("rig.diagnosis.loading",) if diagnosing else ()
-        start_workers(("identify.fit", "rig.watch.refit", *preload))  # its imports overlap the server's start
-        return cls(Worker(refit), Worker(where, preload=preload) if diagnosing else None)
+        start_workers(("identify.fit", "rig.watch.refit", "rig.watch.figures", *preload))
+        # drawing runs at the watch's own priority (the page waits for it); fits and diagnoses lower still
+        return cls(Worker(refit), Worker(figures.draw, nice=0),
+                   Worker(where, preload=preload) if diagnosing else None)
+
+    @property
+    def busy(self) -> bool:
+        return any(w is not None and w.busy for w in (self.refit, self.draw, self.where))
 
     def close(self) -> None:
-        self.refit.close()
-        if self.where is not None:
-            self.where.close()
+        for w in (self.refit, self.draw, self.where):
+            if w is not None:
+                w.close()
 
 
 class SessionWatch:
@@ -110,7 +118,10 @@ class SessionWatch:
         self._asked_where: tuple | None = None
         self._where_at = -math.inf
         self._figures: dict[str, tuple[int, bytes]] = {}
-        self._drawn: dict[str, tuple] = {}
+        self._drawn: dict[str, Any] = {}
+        self._drawing: tuple[str, Any, int | None] | None = None
+        self._shows: dict[str, int | None] = {}
+        self._last_drawn: str | None = None
         self._version = 0
         self._state = b"{}"
         self._cond = threading.Condition()
@@ -149,36 +160,40 @@ class SessionWatch:
             return self._figures.get(name)
 
     # ------------------------------------------------------------------ publishing side (one thread)
-    def step(self, render: bool = True) -> bool:
-        """Poll the file and the workers, submit jobs, draw and publish; True when something changed."""
-        changed = self.tail.poll()
+    def step(self, poll_file: bool = True, render: bool = True) -> bool:
+        """Poll the file (when ``poll_file``) and the workers, submit jobs, publish; True when something
+        changed.  The state is published before any figure is drawn, so the numbers are never held up
+        by a drawing; each figure is published as the drawing worker finishes it."""
+        changed = self.tail.poll() if poll_file else False
         changed |= self._collect()
-        self._submit()
-        viewed = render and time.monotonic() - self.viewed_at < VIEWED_S
-        if viewed:
-            changed |= self._draw()
         if changed or self._version == 0:
             self._publish()
+        self._submit()
+        if render and time.monotonic() - self.viewed_at < VIEWED_S:
+            self._submit_drawing()
         return changed
 
     def _collect(self) -> bool:
         w = self.workers
         changed = False
-        if w.owner_refit is self:
-            result = w.refit.result()
-            if result is not None:
-                w.owner_refit = None
+        if w.refit.owner is self and (result := w.refit.result()) is not None:
+            changed = True
+            if isinstance(result, ModelSoFar) and result.error is None:
+                self.model, self.model_error = result, None
+            else:
+                self.model_error = result.error if isinstance(result, ModelSoFar) else str(result)
+        if w.where is not None and w.where.owner is self and (result := w.where.result()) is not None:
+            changed = True
+            self.diagnosis = result if isinstance(result, WhereSoFar) else WhereSoFar(error=str(result))
+        if w.draw.owner is self and (result := w.draw.result()) is not None:
+            name, key, shows = self._drawing
+            self._drawing = None
+            if isinstance(result, bytes):
+                self._put(name, key, result)
+                self._shows[name] = shows
                 changed = True
-                if isinstance(result, ModelSoFar) and result.error is None:
-                    self.model, self.model_error = result, None
-                else:
-                    self.model_error = result.error if isinstance(result, ModelSoFar) else str(result)
-        if w.where is not None and w.owner_where is self:
-            result = w.where.result()
-            if result is not None:
-                w.owner_where = None
-                changed = True
-                self.diagnosis = result if isinstance(result, WhereSoFar) else WhereSoFar(error=str(result))
+            else:  # a figure that cannot be drawn is not tried again until its data change
+                self._drawn[name] = key
         return changed
 
     def _grid(self) -> tuple[int, float, float] | None:
@@ -203,15 +218,15 @@ class SessionWatch:
         due = m >= MIN_POINTS and n != self._asked_fit and (
             m - fitted >= self.options.refit_every or (final and fitted < m) or self.model is None)
         grid = self._grid()
-        if due and grid is not None and w.owner_refit is None:
+        if due and grid is not None and not w.refit.busy:
             q = header.quantities
             job = RefitJob(s["input"].copy(), np.where(s["measured"], s["output"], np.nan), *grid,
                            method=self.options.method, thermal_term=self.options.thermal_term,
                            input_unit=q.input_unit, output_unit=q.output_unit)
-            if w.refit.submit(job):
-                w.owner_refit, self._asked_fit = self, n
+            if w.refit.submit(job, owner=self):
+                self._asked_fit = n
         pair = self._where_pair()
-        if pair is None or w.where is None or w.owner_where is not None:
+        if pair is None or w.where is None or w.where.busy:
             return
         fit, check = pair
         try:
@@ -224,8 +239,8 @@ class SessionWatch:
             return
         if time.monotonic() - self._where_at < WHERE_INTERVAL_S and not final:
             return
-        if w.where.submit(WhereJob(fit, check, self.options.levels)):
-            w.owner_where, self._asked_where, self._where_at = self, key, time.monotonic()
+        if w.where.submit(WhereJob(fit, check, self.options.levels), owner=self):
+            self._asked_where, self._where_at = key, time.monotonic()
 
     def _where_pair(self) -> tuple[Path, Path] | None:
         o = self.options
@@ -239,42 +254,58 @@ class SessionWatch:
         q = self.tail.header.quantities
         return Quantity(q.input_quantity, q.input_unit), Quantity(q.output_quantity, q.output_unit)
 
-    def _draw(self) -> bool:
+    def _submit_drawing(self) -> None:
+        """Give the drawing worker, when free, the next figure whose data changed since it was drawn
+        (in turn, so that a figure redrawn at every sample does not starve the others)."""
         header, s = self.tail.header, self.tail.samples
-        if header is None or s.size == 0:
-            return False
+        if header is None or s.size == 0 or self.workers.draw.busy:
+            return
+        n = s.size
+        model = self.model if self.model is not None and self.model.n_samples <= n else None
+        mkey = None if model is None else id(model)
+        d = self.diagnosis
+        keys = {
+            "time": (self.tail.generation, n, mkey),
+            "loop": (self.tail.generation, n, mkey) if s["measured"].any() else None,
+            "model": mkey,
+            "where": id(d) if d is not None and d.diagnosis is not None else None,
+        }
+        stale = [name for name in FIGURE_ORDER if keys[name] is not None and self._drawn.get(name) != keys[name]]
+        if not stale:
+            return
+        after = FIGURE_ORDER.index(self._last_drawn) + 1 if self._last_drawn in FIGURE_ORDER else 0
+        name = min(stale, key=lambda f: (FIGURE_ORDER.index(f) - after) % len(FIGURE_ORDER))
+        job = figures.DrawJob(name, self._figure_data(name, model))
+        if self.workers.draw.submit(job, owner=self):
+            shows = {"time": n, "loop": n, "model": None if model is None else model.n_samples,
+                     "where": None if d is None else d.n_check}[name]
+            self._drawing, self._last_drawn = (name, keys[name], shows), name
+
+    def _figure_data(self, name: str, model: ModelSoFar | None) -> dict[str, Any]:
+        """The arguments of figure ``name``'s drawing function (:data:`figures.FIGURES`)."""
+        header, s = self.tail.header, self.tail.samples
+        if name == "where":
+            return {"diagnosis": self.diagnosis.diagnosis}
         vq, yq = self._quantities()
         n = s.size
         v, t = s["input"].copy(), s["t_s"].copy()
         y = np.where(s["measured"], s["output"], np.nan)
-        model = self.model if self.model is not None and self.model.n_samples <= n else None
-        mkey = None if model is None else id(model)
-        drawn = False
-        key = (self.tail.generation, n, mkey)
-        if self._drawn.get("time") != key:
+        if name == "time":
             pred = None
             if model is not None:
                 pred = np.full(n, np.nan)
                 pred[: model.n_samples] = model.prediction
-            title = f"{self.path.name}: {n} of {header.excitation.n_points} points"
-            self._put("time", key, figures.time_svg(t, v, y, vq, yq, pred, title))
-            drawn = True
-        if self._drawn.get("loop") != key and np.isfinite(y).any():
-            title = f"Hysteresis loop, {int(np.isfinite(y).sum())} measured points"
-            self._put("loop", key, figures.loop_svg(v, y, vq, yq, None if model is None else model.path, title))
-            drawn = True
-        if model is not None and self._drawn.get("model") != mkey:
-            rows = model.rows
-            title = (f"Model so far: {model.method}, L = {model.levels}, fitted on {model.n_used} points; "
-                     f"RMSE {model.rmse:.3g} {display_unit(yq.unit)}")
-            self._put("model", mkey, figures.model_svg(v[: model.n_samples], y[: model.n_samples],
-                                                       model.prediction, rows, vq, yq, title))
-            drawn = True
-        d = self.diagnosis
-        if d is not None and d.diagnosis is not None and self._drawn.get("where") != id(d):
-            self._put("where", id(d), figures.where_svg(d.diagnosis))
-            drawn = True
-        return drawn
+            return {"t_s": t, "inputs": v, "outputs": y, "input_q": vq, "output_q": yq, "prediction": pred,
+                    "title": f"{self.path.name}: {n} of {header.excitation.n_points} points"}
+        if name == "loop":
+            return {"inputs": v, "outputs": y, "input_q": vq, "output_q": yq,
+                    "path": None if model is None else model.path,
+                    "title": f"Hysteresis loop, {int(np.isfinite(y).sum())} measured points"}
+        k = model.n_samples
+        return {"inputs": v[:k], "outputs": y[:k], "prediction": model.prediction, "rows": model.rows,
+                "input_q": vq, "output_q": yq,
+                "title": f"Model so far: {model.method}, L = {model.levels}, fitted on {model.n_used} points; "
+                         f"RMSE {model.rmse:.3g} {display_unit(yq.unit)}"}
 
     def _put(self, name: str, key, svg: bytes) -> None:
         with self._cond:
@@ -301,6 +332,7 @@ class SessionWatch:
             "path": str(self.path),
             "error": tail.error,
             "figures": figs,
+            "drawn": dict(self._shows),
             "updated_unix": time.time(),
         }
         if header is None:

@@ -151,7 +151,7 @@ async function followSession() {
     await showFigures(s.figures);
     const u = window.rigWatch.updates;
     u.push({ version, n: s.progress ? s.progress.n_applied : 0, status: s.status, shown_ms: Date.now(),
-             figures: { ...window.rigWatch.figures } });
+             figures: { ...window.rigWatch.figures }, drawn: { ...(s.drawn || {}) } });
     if (u.length > 1000) u.splice(0, u.length - 1000);
   }
 }
