@@ -278,7 +278,8 @@ def test_the_page_its_state_and_figures_and_nothing_that_acts(tmp_path):
         status, headers, body = get(s.base)
         assert status == 200 and b"<title>rig watch</title>" in body
         assert "script-src 'self'" in headers["Content-Security-Policy"]
-        state = wait_state(s.base, lambda st: {"time", "loop", "model"} <= set(st["figures"]), what="with figures")
+        state = wait_state(s.base, lambda st: {"time", "loop", "model"} <= set(st["figures"]) and not st["stale"],
+                           what="with every figure drawn from the newest data")
         assert state["status"] == "complete" and state["progress"]["n_applied"] == 30
         assert state["quantities"] == {"input": "heater voltage (V)", "output": "deflection (µm)",
                                        "input_unit": "V", "output_unit": "µm"}

@@ -254,29 +254,44 @@ class SessionWatch:
         q = self.tail.header.quantities
         return Quantity(q.input_quantity, q.input_unit), Quantity(q.output_quantity, q.output_unit)
 
-    def _submit_drawing(self) -> None:
-        """Give the drawing worker, when free, the next figure whose data changed since it was drawn
-        (in turn, so that a figure redrawn at every sample does not starve the others)."""
-        header, s = self.tail.header, self.tail.samples
-        if header is None or s.size == 0 or self.workers.draw.busy:
-            return
+    def _figure_keys(self) -> dict[str, Any]:
+        """What each figure would show now (None: nothing to draw yet); a figure whose key differs from
+        the one it was drawn with is stale."""
+        s = self.tail.samples
         n = s.size
         model = self.model if self.model is not None and self.model.n_samples <= n else None
         mkey = None if model is None else id(model)
         d = self.diagnosis
-        keys = {
-            "time": (self.tail.generation, n, mkey),
+        return {
+            "time": (self.tail.generation, n, mkey) if n else None,
             "loop": (self.tail.generation, n, mkey) if s["measured"].any() else None,
             "model": mkey,
             "where": id(d) if d is not None and d.diagnosis is not None else None,
         }
-        stale = [name for name in FIGURE_ORDER if keys[name] is not None and self._drawn.get(name) != keys[name]]
+
+    def stale_figures(self) -> list[str]:
+        """The figures whose data changed since they were drawn (or being drawn now), in drawing order."""
+        if self.tail.header is None:
+            return []
+        keys = self._figure_keys()
+        return [name for name in FIGURE_ORDER if keys[name] is not None and self._drawn.get(name) != keys[name]]
+
+    def _submit_drawing(self) -> None:
+        """Give the drawing worker, when free, the next stale figure (in turn, so that a figure redrawn at
+        every sample does not starve the others)."""
+        if self.workers.draw.busy:
+            return
+        stale = self.stale_figures()
         if not stale:
             return
+        keys = self._figure_keys()
+        n = self.tail.n_samples
+        model = self.model if self.model is not None and self.model.n_samples <= n else None
         after = FIGURE_ORDER.index(self._last_drawn) + 1 if self._last_drawn in FIGURE_ORDER else 0
         name = min(stale, key=lambda f: (FIGURE_ORDER.index(f) - after) % len(FIGURE_ORDER))
         job = figures.DrawJob(name, self._figure_data(name, model))
         if self.workers.draw.submit(job, owner=self):
+            d = self.diagnosis
             shows = {"time": n, "loop": n, "model": None if model is None else model.n_samples,
                      "where": None if d is None else d.n_check}[name]
             self._drawing, self._last_drawn = (name, keys[name], shows), name
@@ -333,6 +348,7 @@ class SessionWatch:
             "error": tail.error,
             "figures": figs,
             "drawn": dict(self._shows),
+            "stale": self.stale_figures(),
             "updated_unix": time.time(),
         }
         if header is None:

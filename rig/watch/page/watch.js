@@ -99,6 +99,13 @@ function showEvents(s) {
   ol.replaceChildren(...items.map((t) => { const li = document.createElement("li"); li.textContent = t; return li; }));
 }
 
+function markStale(stale) {
+  for (const fig of document.querySelectorAll("#figures figure")) {
+    const name = fig.querySelector(".plot").dataset.figure;
+    fig.toggleAttribute("data-stale", (stale || []).includes(name));
+  }
+}
+
 async function showFigures(figs) {
   for (const [name, version] of Object.entries(figs || {})) {
     if (window.rigWatch.figures[name] === version) continue;
@@ -148,6 +155,7 @@ async function followSession() {
       showWhere(s);
       showEvents(s);
     }
+    markStale(s.stale);
     await showFigures(s.figures);
     const u = window.rigWatch.updates;
     u.push({ version, n: s.progress ? s.progress.n_applied : 0, status: s.status, shown_ms: Date.now(),
