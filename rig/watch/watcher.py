@@ -89,7 +89,7 @@ class Workers:
         preload = ("rig.diagnosis.loading",) if diagnosing else ()
         start_workers(("identify.fit", "rig.watch.refit", "rig.watch.figures", *preload))
         # drawing runs at the watch's own priority (the page waits for it); fits and diagnoses lower still
-        return cls(Worker(refit), Worker(figures.draw, nice=0),
+        return cls(Worker(refit), Worker(figures.Drawer(), nice=0),
                    Worker(where, preload=preload) if diagnosing else None)
 
     @property
@@ -298,7 +298,7 @@ class SessionWatch:
 
     def _figure_data(self, name: str, model: ModelSoFar | None) -> dict[str, Any]:
         """The arguments of figure ``name``'s drawing function (:data:`figures.FIGURES`)."""
-        header, s = self.tail.header, self.tail.samples
+        s = self.tail.samples
         if name == "where":
             return {"diagnosis": self.diagnosis.diagnosis}
         vq, yq = self._quantities()
@@ -311,16 +311,15 @@ class SessionWatch:
                 pred = np.full(n, np.nan)
                 pred[: model.n_samples] = model.prediction
             return {"t_s": t, "inputs": v, "outputs": y, "input_q": vq, "output_q": yq, "prediction": pred,
-                    "title": f"{self.path.name}: {n} of {header.excitation.n_points} points"}
+                    "title": self.path.name}
         if name == "loop":
             return {"inputs": v, "outputs": y, "input_q": vq, "output_q": yq,
                     "path": None if model is None else model.path,
-                    "title": f"Hysteresis loop, {int(np.isfinite(y).sum())} measured points"}
+                    "title": f"Hysteresis loop, {self.path.name}"}
         k = model.n_samples
         return {"inputs": v[:k], "outputs": y[:k], "prediction": model.prediction, "rows": model.rows,
                 "input_q": vq, "output_q": yq,
-                "title": f"Model so far: {model.method}, L = {model.levels}, fitted on {model.n_used} points; "
-                         f"RMSE {model.rmse:.3g} {display_unit(yq.unit)}"}
+                "title": f"Model so far: {model.method}, L = {model.levels}"}
 
     def _put(self, name: str, key, svg: bytes) -> None:
         with self._cond:
