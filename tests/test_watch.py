@@ -194,6 +194,11 @@ def test_refit_on_a_damped_prefix_fits_without_the_thermal_term_and_says_why():
     y_part = np.where(np.arange(v.size) % 2 == 0, y, np.nan)
     assert refit(RefitJob(v, y_part, 6, 0.0, 6.0, method="ls")).n_used == (v.size + 1) // 2
     assert "v_max" in refit(RefitJob(v, y, 6, 1.0, 1.0)).error
+    # an applied but unmeasured point beyond the grid (a FORC protocol's saturation field): no prediction there
+    beyond = refit(RefitJob(np.append(v, 9.0), np.append(y, np.nan), 6, 0.0, 6.0, method="ls"))
+    assert np.isnan(beyond.prediction[-1]) and np.all(np.isfinite(beyond.prediction[:-1]))
+    pv, pu = beyond.path
+    assert np.array_equal(np.isnan(pu), pv > 6.0)
 
 
 def _slow_square(x: float) -> float:

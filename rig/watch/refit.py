@@ -60,9 +60,10 @@ class RefitJob:
 
 @dataclass(frozen=True, eq=False)
 class ModelSoFar:
-    """A refit's result: arrays ``prediction`` ``(n,)`` at every applied point, ``rows`` ``(m,)`` the
-    measured points fitted, ``path`` the model's ``(v, u)`` along the input's ramps; errors in output
-    units; ``seconds`` the solver's time, ``wall_s`` the whole job's; ``error`` instead of a model."""
+    """A refit's result: arrays ``prediction`` ``(n,)`` at every applied point (NaN beyond the grid),
+    ``rows`` ``(m,)`` the measured points fitted, ``path`` the model's ``(v, u)`` along the input's ramps;
+    errors in output units; ``seconds`` the solver's time, ``wall_s`` the whole job's; ``error`` instead
+    of a model."""
 
     n_samples: int
     method: str
@@ -110,14 +111,24 @@ def refit(job: RefitJob) -> ModelSoFar:
             thermal, note = False, NO_THERMAL
         model = report.model
         steps = max(1, min(8, PATH_POINTS // max(1, n)))
+        pv, pu = model_path(model, job.inputs, steps)
         return ModelSoFar(
-            **common, thermal_term=thermal, note=note, rows=report.rows, prediction=model.predict(job.inputs),
-            path=model_path(model, job.inputs, steps), mu0=model.mu0, c_d=model.c_d, rmse=report.rmse,
+            **common, thermal_term=thermal, note=note, rows=report.rows,
+            prediction=within(grid, job.inputs, model.predict(job.inputs)), path=(pv, within(grid, pv, pu)),
+            mu0=model.mu0, c_d=model.c_d, rmse=report.rmse,
             nrmse=report.nrmse, max_abs=report.max_abs, seconds=report.seconds,
             wall_s=time.perf_counter() - t0,
         )
     except (IdentifyError, ValueError, np.linalg.LinAlgError) as exc:
         return ModelSoFar(**common, error=str(exc), wall_s=time.perf_counter() - t0)
+
+
+def within(grid, inputs: np.ndarray, outputs: np.ndarray) -> np.ndarray:
+    """``outputs`` with NaN where ``inputs`` lie beyond the grid: there the model only answers with its
+    saturated branch plus the thermal term's straight line, which is no prediction (a FORC protocol's
+    saturation field, applied but not measured, is such an input)."""
+    tol = 1e-9 * (grid.v_max - grid.v_min)
+    return np.where((inputs >= grid.v_min - tol) & (inputs <= grid.v_max + tol), outputs, np.nan)
 
 
 @dataclass(frozen=True)
