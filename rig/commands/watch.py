@@ -56,7 +56,9 @@ def watch(target, host, port, allow_remote, open_browser, method, levels, refit_
     read-only: the session is only ever opened for reading, and the page can
     start, stop or change nothing.
     """
-    from ..watch.server import Site, WatchServer, is_loopback, new_token
+    from drivers.net import is_loopback
+
+    from ..watch.server import Site, WatchServer, new_token
     from ..watch.tail import wait_readable
 
     if not target.exists() and not target.parent.is_dir():
