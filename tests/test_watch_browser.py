@@ -7,6 +7,7 @@ Without Chromium and its driver these tests skip, saying so; CI installs both (s
 
 from __future__ import annotations
 
+import os
 import re
 import time
 
@@ -83,6 +84,14 @@ def test_a_live_run_seen_in_the_browser_as_it_is_written(tmp_path, browser):
         server.stop()
 
 
+def group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
 def forc_session(tmp_path):
     relays = Relays.random(40, -0.09, 0.09, seed=3, bias=0.25, slope=2.0)
     data = forc_data(relays, [0.02, 0.0, -0.02, -0.04, -0.06], 0.01, 0.06, {"elapsed": 120.0})
@@ -112,4 +121,7 @@ def test_beyond_loopback_the_page_needs_the_printed_token_and_shows_a_forc_sessi
         labels = wait_page(browser, lambda d: svg_texts(d, "loop"), what="the loop figure")
         assert "applied field (T)" in labels and "magnetic moment (A·m²)" in labels
         assert "magnetic moment (A·m²)" in svg_texts(browser, "time")
+        # Ctrl-C ends the watch, exit code 0, and soon every process it started (its whole process group)
+        assert w.stop() == 0 and "rig watch: stopped" in w.err
+        wait_page(None, lambda _: not group_alive(w.proc.pid), timeout=10, what="the watch's processes gone")
     browser.delete_all_cookies()
