@@ -111,7 +111,8 @@ def watch(target, host, port, allow_remote, open_browser, method, levels, refit_
     click.echo(f"rig watch: {what} {target}, read-only; Ctrl-C to stop", err=True)
     if token:
         click.echo(f"rig watch: listening on {server.server_address[0]}:{server.port}, beyond loopback; the page "
-                   f"needs the access token, printed only here: {token}", err=True)
+                   f"answers only with the access token in the address above: {token} (shown now only; a new "
+                   "one each start)", err=True)
     if open_browser:
         webbrowser.open(url)
 

@@ -164,7 +164,8 @@ class Site:
 
 
 class WatchServer(ThreadingHTTPServer):
-    """The HTTP server: the :class:`Site`, the access token (None on loopback), the allowed host names."""
+    """The HTTP server of a :class:`Site`; ``token`` is the access token (None on loopback, where the
+    ``Host`` check applies instead)."""
 
     daemon_threads = True
     allow_reuse_address = True

@@ -1,10 +1,10 @@
 """One watched session: follow the file, keep the model so far and the diagnosis up to date, and
 publish what the page shows -- a JSON state and the SVG figures -- under a version number.
 
-:meth:`SessionWatch.step` is called by the server's one publishing thread
-(every poll interval); it reads what was flushed, collects finished worker
-jobs, submits new ones when a worker is free, and re-draws the figures whose
-data changed.  Request threads only read the published snapshot
+:meth:`SessionWatch.step` is called by the server's one publishing thread;
+it reads what was flushed, collects finished worker jobs (a fit, a
+diagnosis, a figure), publishes the state, and submits new jobs when a
+worker is free: a refit, a diagnosis, the next figure whose data changed.  Request threads only read the published snapshot
 (:meth:`SessionWatch.state_json`, :meth:`SessionWatch.figure`), so a page
 is answered at once whatever is being drawn or fitted.
 """
@@ -28,8 +28,8 @@ from ..plots.style import Quantity, display_unit, ratio_unit
 from . import figures
 from .progress import progress
 from .refit import MIN_POINTS, ModelSoFar, RefitJob, WhereJob, WhereSoFar
-from .worker import Worker
 from .tail import SessionTail
+from .worker import Worker
 
 #: A page that asked for the state within this many seconds is being looked at: keep its figures drawn.
 VIEWED_S = 30.0
@@ -122,6 +122,8 @@ class SessionWatch:
         self._drawing: tuple[str, Any, int | None] | None = None
         self._shows: dict[str, int | None] = {}
         self._last_drawn: str | None = None
+        self._results = 0  # numbers the models and diagnoses received, for the figures' keys
+        self._model_no = self._diagnosis_no = 0
         self._version = 0
         self._state = b"{}"
         self._cond = threading.Condition()
@@ -180,11 +182,15 @@ class SessionWatch:
             changed = True
             if isinstance(result, ModelSoFar) and result.error is None:
                 self.model, self.model_error = result, None
+                self._results += 1
+                self._model_no = self._results
             else:
                 self.model_error = result.error if isinstance(result, ModelSoFar) else str(result)
         if w.where is not None and w.where.owner is self and (result := w.where.result()) is not None:
             changed = True
             self.diagnosis = result if isinstance(result, WhereSoFar) else WhereSoFar(error=str(result))
+            self._results += 1
+            self._diagnosis_no = self._results
         if w.draw.owner is self and (result := w.draw.result()) is not None:
             name, key, shows = self._drawing
             self._drawing = None
@@ -260,13 +266,13 @@ class SessionWatch:
         s = self.tail.samples
         n = s.size
         model = self.model if self.model is not None and self.model.n_samples <= n else None
-        mkey = None if model is None else id(model)
+        mkey = None if model is None else self._model_no
         d = self.diagnosis
         return {
             "time": (self.tail.generation, n, mkey) if n else None,
             "loop": (self.tail.generation, n, mkey) if s["measured"].any() else None,
             "model": mkey,
-            "where": id(d) if d is not None and d.diagnosis is not None else None,
+            "where": self._diagnosis_no if d is not None and d.diagnosis is not None else None,
         }
 
     def stale_figures(self) -> list[str]:
