@@ -132,6 +132,32 @@ def test_a_session_with_extra_columns_and_its_own_kind_is_watched_like_any_other
     assert state["quantities"]["output"] == "deflection (µm)"
 
 
+def test_the_status_says_what_happened_to_the_run(tmp_path):
+    model, exc = known_model(3, 0, 6), Excitation.random(Grid(3, 0, 6), 12, seed=2)
+    failed, _ = write_run(tmp_path / "f.h5", model, exc, n=7, status="failed")
+    writer, _ = write_run(tmp_path / "r.h5", model, exc, n=5, status="running")
+    workers = Workers.start(WatchOptions(method="ls"))
+    try:
+        texts = {}
+        for name in ("f.h5", "r.h5"):
+            watch = SessionWatch(tmp_path / name, WatchOptions(method="ls"), workers)
+            watch.step(render=False)
+            texts[name] = watch.build_state()
+            watch.tail.close()
+        writer._abandon()  # the writer dies
+        watch = SessionWatch(tmp_path / "r.h5", WatchOptions(method="ls"), workers)
+        watch.step(render=False)
+        dead = watch.build_state()
+        watch.tail.close()
+    finally:
+        workers.close()
+    assert texts["f.h5"]["status"] == "failed" and texts["f.h5"]["status_text"] == "failed: test"
+    assert texts["f.h5"]["progress"]["eta_s"] is None
+    assert texts["r.h5"]["status_text"] == "running: being written now" and texts["r.h5"]["writer_alive"]
+    assert dead["status"] == "running" and not dead["writer_alive"]
+    assert dead["status_text"].startswith("running, but no process is writing it")
+
+
 # ------------------------------------------------------------------ progress
 def _samples(t_s, measured) -> np.ndarray:
     s = np.zeros(len(t_s), SAMPLE_DTYPE)
