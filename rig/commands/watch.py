@@ -6,7 +6,6 @@ import os
 import signal
 import socket
 import sys
-import webbrowser
 from pathlib import Path
 
 import click
@@ -114,6 +113,8 @@ def watch(target, host, port, allow_remote, open_browser, method, levels, refit_
                    f"answers only with the access token in the address above: {token} (shown now only; a new "
                    "one each start)", err=True)
     if open_browser:
+        import webbrowser
+
         webbrowser.open(url)
 
     def stop(signum, frame):
