@@ -173,7 +173,8 @@ class History:
         # time since the last turn that happened before each point's readings
         last_turn = np.searchsorted(first_after, np.arange(n), side="right") - 1
         start = run.setpoint_t[0]
-        since = run.t_s - np.where(last_turn >= 0, turn_t[np.maximum(last_turn, 0)], start)
+        turned = turn_t[np.maximum(last_turn, 0)] if turn_t.size else np.full(n, start)
+        since = run.t_s - np.where(last_turn >= 0, turned, start)
         at_or_before = np.searchsorted(rev_idx, np.arange(n), side="right") - 1
         rev_at = v[rev_idx[np.maximum(at_or_before, 0)]] if rev_idx.size else np.zeros(n)
         rev_at = np.where(at_or_before >= 0, rev_at, np.nan)

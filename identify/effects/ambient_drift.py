@@ -117,6 +117,16 @@ class AmbientDrift(Effect):
             out[:, j] = (ctx.response(i, moved) - base) / step
         return out
 
+    def coefficients(self, ctx: Context) -> np.ndarray:
+        runs = (self.params or {}).get("runs", {})
+        out = []
+        for r in ctx.runs:
+            d = time_splines(r).shape[1]
+            entry = runs.get(r.name)
+            out.append(np.asarray(entry["coefficients"], float) if entry is not None and len(entry["coefficients"]) == d
+                       else np.zeros(d))
+        return np.concatenate(out)
+
     def with_fit(self, ctx, setting, coef, cols) -> "AmbientDrift":
         coef = np.asarray(coef, dtype=float).copy()
         first = ctx.runs[0]

@@ -202,6 +202,11 @@ class Effect(ABC):
         unfitted); the others' are the coefficients themselves."""
         raise NotImplementedError
 
+    def coefficients(self, ctx: Context) -> np.ndarray:
+        """(input effects with a penalty) The current coefficients in the order of :meth:`columns` at
+        ``ctx`` (the joint fit penalises where a step takes them, not the step)."""
+        raise NotImplementedError
+
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
         """The fitted effect in physical terms for reports (default: its parameters); ``runs`` lets a
         per-run effect describe each run's nuisance over its measured points."""

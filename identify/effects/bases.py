@@ -51,9 +51,35 @@ def time_splines(run: Run) -> np.ndarray:
     return splines_at(time_knots(run), run.t_s)
 
 
+def greville(run: Run) -> np.ndarray | None:
+    """The Greville abscissae (s) of :func:`time_splines`' coefficients: a straight line in time has its
+    coefficients on a straight line over them (None for a single constant function)."""
+    knots = time_knots(run)
+    if knots is None:
+        return None
+    return np.array([knots[j + 1:j + 1 + DEGREE].mean() for j in range(knots.size - DEGREE - 1)])
+
+
+def second_differences(x: np.ndarray) -> np.ndarray:
+    """``(d - 2, d)``: second divided differences over the abscissae ``x`` ``(d,)`` (scaled by the mean
+    spacing squared): zero exactly on coefficients that lie on a straight line over ``x``."""
+    x = np.asarray(x, dtype=float)
+    d = x.size
+    out = np.zeros((max(d - 2, 0), d))
+    h = np.diff(x)
+    mean = float(np.mean(h)) if h.size else 1.0
+    for i in range(d - 2):
+        out[i, i] = 1.0 / h[i]
+        out[i, i + 1] = -(1.0 / h[i] + 1.0 / h[i + 1])
+        out[i, i + 2] = 1.0 / h[i + 1]
+        out[i] *= 2.0 * mean ** 2 / (h[i] + h[i + 1])
+    return out
+
+
 def per_run_columns(runs: tuple[Run, ...], blocks: list[np.ndarray], what: str, smoothing: float = 0.0) -> Columns:
     """Per-run nuisance columns: run ``i`` gets ``blocks[i]`` ``(n_i, d_i)`` and zeros elsewhere;
-    the roughness penalty is the squared second differences of each run's coefficients."""
+    the roughness penalty is the squared second differences of each run's coefficients -- divided
+    differences over the Greville abscissae of its time splines, so a straight-line drift is free."""
     offsets = np.cumsum([0] + [b.shape[1] for b in blocks])
     k = int(offsets[-1])
     values, labels, run_of = [], [], []
@@ -64,10 +90,11 @@ def per_run_columns(runs: tuple[Run, ...], blocks: list[np.ndarray], what: str, 
         labels += [f"{run.name}:{what}{j}" for j in range(b.shape[1])]
         run_of += [i] * b.shape[1]
     rough = np.zeros((k, k))
-    for i, b in enumerate(blocks):
+    for i, (run, b) in enumerate(zip(runs, blocks)):
         d = b.shape[1]
         if d >= 3:
-            diff = np.diff(np.eye(d), n=2, axis=0)
+            x = greville(run)
+            diff = second_differences(x) if x is not None and x.size == d else np.diff(np.eye(d), n=2, axis=0)
             rough[offsets[i]:offsets[i + 1], offsets[i]:offsets[i + 1]] = diff.T @ diff
     return Columns(tuple(values), tuple(labels), (False,) * k, tuple(run_of), rough, smoothing)
 

@@ -248,11 +248,11 @@ class _Fitter:
             x[s - 1] = st.below
         # through a fitted sensor map the output moves by its slope times the model's: a Gauss--Newton step
         sensor = next((e for e in effects if e.stage == SENSOR and e.fitted), None)
-        target, row_scale = st.outputs, None
+        outputs, row_scale = st.outputs, None
         if sensor is not None:
             u_c = st.stack(list(ctx.predictions))
             row_scale = sensor.slope(u_c)
-            target = st.outputs + (row_scale - 1.0) * u_c
+            outputs = st.outputs + (row_scale - 1.0) * u_c
             sensor_rows = [k for k, (i, _) in enumerate(owner) if i >= 0 and effects[i].stage == SENSOR]
             for k in sensor_rows:
                 blocks[k] = blocks[k] / row_scale[:, None]
@@ -265,14 +265,21 @@ class _Fitter:
             scale = np.sqrt(np.mean(extra[st.rows] ** 2, axis=0))
             scale = np.where(scale > 0, scale, 1.0)
             penalty = self._penalty(cols, owner, scale, st.rows.size)
+            # an input effect's coefficients are steps from where it is: its penalty acts on where it goes
+            current = np.zeros(len(blocks))
+            for k, e in enumerate(effects):
+                if e.stage == INPUT and e.fitted and cols[k].k and cols[k].roughness is not None and cols[k].smoothing > 0:
+                    at = [j for j, (i, _) in enumerate(owner) if i == k]
+                    current[at] = e.coefficients(ctx) * scale[at]
+            target = None if penalty is None else -(penalty @ current)
             order = np.argsort(~np.asarray(nonneg), kind="stable")  # sign-constrained columns first
             extra = extra[:, order] / scale[order]
             penalty = None if penalty is None else penalty[:, order]
             k_nonneg = int(np.sum(nonneg))
         else:
-            extra, order, scale, k_nonneg, penalty = None, np.zeros(0, int), np.zeros(0), 0, None
-        problem = Problem.build(self.grid, x, target, st.rows, False, extra=extra, extra_nonneg=k_nonneg,
-                                row_scale=row_scale, penalty=penalty)
+            extra, order, scale, k_nonneg, penalty, target = None, np.zeros(0, int), np.zeros(0), 0, None, None
+        problem = Problem.build(self.grid, x, outputs, st.rows, False, extra=extra, extra_nonneg=k_nonneg,
+                                row_scale=row_scale, penalty=penalty, penalty_target=target)
         estimator = make_method(self.method, **self.method_settings)
         estimator.fit(problem)
         self.solves += 1

@@ -78,7 +78,8 @@ class Problem:
     penalty: ``(r, k)`` or ``None``: rows acting on the extra columns'
         coefficients alone, appended to the design and fitted to zero (a
         roughness penalty); they are rows ``n .. n + r - 1`` of ``operator``
-        and are among ``rows`` (with ``measured`` 0), so ``n_rows = n + r``.
+        and are among ``rows`` (``measured`` there is ``penalty_target``, zeros
+        by default), so ``n_rows = n + r``.
 
     ``regressor`` (dense ``S``, ``(n, P)``) and ``operator`` (the same as a
     matrix-free :class:`~identify.operators.RegressorOperator`) are built on
@@ -116,6 +117,7 @@ class Problem:
         extra_nonneg: int = 0,
         row_scale: np.ndarray | None = None,
         penalty: np.ndarray | None = None,
+        penalty_target: np.ndarray | None = None,
     ) -> "Problem":
         """A problem from the applied inputs (V) and the outputs (um) of every row.
 
@@ -178,7 +180,10 @@ class Problem:
             if extra is None or penalty.ndim != 2 or penalty.shape[1] != extra.shape[1]:
                 raise IdentifyError("penalty rows need extra columns of the same width")
             rows = np.concatenate([rows, v.size + np.arange(penalty.shape[0])])
-            measured = np.concatenate([measured, np.zeros(penalty.shape[0])])
+            target = np.zeros(penalty.shape[0]) if penalty_target is None else np.asarray(penalty_target, float)
+            if target.shape != (penalty.shape[0],):
+                raise IdentifyError("the penalty target needs one value per penalty row")
+            measured = np.concatenate([measured, target])
             order = None
         return cls(grid, v, thermal_term, rows, measured, order, initial, history, regressor, curves,
                    extra, int(extra_nonneg) if extra is not None else 0, row_scale, penalty)

@@ -1,0 +1,236 @@
+"""Effects as model terms (identify.effects): exact recovery, prediction, storage and the command line."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from identify import Grid, IdentifyError, PreisachModel
+from identify.effects import EFFECTS, EffectNotApplicable, EffectNotIdentifiable, make_effect, parse_effects
+from identify.effects.bases import splines_at, time_knots
+from identify.effects.compose import deflection, predict_run
+from identify.effects.joint import fit_with_effects
+from identify.forward import HysteresisState
+from identify.runs import Run
+from identify.validation import validate_run
+from sessions import ModelRecord, add_model, read_session
+
+from .cli import assert_one_line_error, rig_here as rig
+from .conftest import digest
+
+GRID = Grid(6, 0.0, 4.0)
+
+
+def _design(n=420, seed=1):
+    """A random input with reversals, off the walls, with varied dwells (s) and time stamps."""
+    rng = np.random.default_rng(seed)
+    walk = np.cumsum(rng.normal(0.0, 0.7, n)) % 8.0
+    v = np.where(walk > 4.0, 8.0 - walk, walk)
+    dwell = rng.choice([5.0, 10.0, 30.0, 60.0], n)
+    return v, dwell, np.cumsum(dwell)
+
+
+V, DWELL, T = _design()
+TRUE = PreisachModel(GRID, np.random.default_rng(7).uniform(0.1, 1.0, GRID.n_cells), mu0=0.3, c_d=-0.4)
+
+
+def run_of(y, v=V, dwell=DWELL, t=T, name="sim"):
+    return Run(name, v, y, t, dwell, 4, 0.0)
+
+
+def _drift_params():
+    """A drift the fit's roughness penalty leaves alone (a straight line in time, as B-spline coefficients at
+    the Greville abscissae) with a slow bump that it does not."""
+    knots = time_knots(run_of(np.ones(V.size)))
+    greville = np.array([knots[j + 1:j + 4].mean() for j in range(knots.size - 4)])
+    coef = 0.02 + 0.08 * (greville - greville[0]) / np.ptp(greville)
+    return {"runs": {"sim": {"knots_s": knots.tolist(), "coefficients": coef.tolist()}}}
+
+
+TRUTHS = {
+    "thermal_lag": {"time_constant_s": 7.0, "fraction": 0.2},
+    "baseline_drift": None,
+    "ambient_drift": None,
+    "joule_power": {"um_per_V2": 0.07},
+    "creep": {"time_constants_s": [10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0],
+              "weights_um_per_V": [0.0, 0.02, 0.05, 0.0, 0.01, 0.0]},
+    "sensor_nonlinearity": {"knots_z": [-1.0, -0.5, 0.0, 0.5, 1.0], "coefficients_um": [0.3, -0.5, 0.2],
+                            "centre_um": 0.0, "half_range_um": 3.0},
+    "reversible": {"knots": GRID.walls.tolist(), "values_um": (0.3 * np.sin(GRID.walls)).tolist()},
+    "interaction": {"k": 0.02},
+    "first_point": {"coefficients_um": [0.01, 0.02, -0.005, 0.03, -0.01, 0.004]},
+}
+
+
+def _truth(name):
+    params = TRUTHS[name] if TRUTHS[name] is not None else _drift_params()
+    if name == "ambient_drift":  # the first run's mean room temperature is the density's reference
+        entry = params["runs"]["sim"]
+        c = np.asarray(entry["coefficients"])
+        c = c - splines_at(np.asarray(entry["knots_s"]), T).mean(axis=0) @ c
+        params = {"runs": {"sim": {**entry, "coefficients": c.tolist()}}}
+    model = replace(TRUE, effects=(EFFECTS[name](params),))
+    if name == "reversible":
+        model = replace(model, c_d=0.0)
+    y = predict_run(model, run_of(np.zeros(V.size)))
+    if name == "sensor_nonlinearity":  # the fit scales the map by the outputs it sees: make the truth's the same
+        for _ in range(60):
+            params = {**params, "centre_um": 0.5 * (y.max() + y.min()), "half_range_um": 0.5 * np.ptp(y)}
+            model = replace(TRUE, effects=(EFFECTS[name](params),))
+            y = predict_run(model, run_of(np.zeros(V.size)))
+    if name == "baseline_drift":  # the first run's drift has zero mean: the constant is mu0's
+        entry = params["runs"]["sim"]
+        b = splines_at(np.asarray(entry["knots_s"]), T)
+        c = np.asarray(entry["coefficients"])
+        shift = float(b.mean(axis=0) @ c)
+        params = {"runs": {"sim": {**entry, "coefficients": (c - shift).tolist()}}}
+        model = replace(TRUE, mu0=TRUE.mu0 + shift, effects=(EFFECTS[name](params),))
+    return model, params, y
+
+
+@pytest.mark.parametrize("name", list(EFFECTS))
+def test_each_effect_recovers_its_own_parameters_exactly_from_noise_free_data(name):
+    truth, params, y = _truth(name)
+    fit = fit_with_effects(GRID, [run_of(y)], "ls", [make_effect(name)])
+    scale = float(np.ptp(y))
+    assert fit.rmse <= 1e-9 * scale
+    got = fit.model.effects[0].params
+    for key, value in params.items():
+        if key == "runs":
+            for run, entry in value.items():
+                got_c = np.asarray(got["runs"][run]["coefficients"])
+                np.testing.assert_allclose(got_c, entry["coefficients"], atol=1e-7 * max(1.0, np.abs(got_c).max()))
+        else:
+            np.testing.assert_allclose(np.asarray(got[key], float), np.asarray(value, float), rtol=1e-6, atol=1e-8)
+    if name != "interaction":  # with feedback some cells can switch together and share their weight
+        np.testing.assert_allclose(fit.model.density, truth.density, atol=1e-7)
+    assert fit.model.mu0 == pytest.approx(truth.mu0, abs=1e-7)
+    assert fit.model.c_d == pytest.approx(truth.c_d, abs=1e-7)
+
+
+def test_the_mean_field_fixed_point_is_exact_and_continuous_by_hand():
+    model = replace(TRUE, effects=(EFFECTS["interaction"]({"k": 0.05}),))
+    run = run_of(np.zeros(V.size))
+    u = deflection(model, run)
+    # self-consistent: the hysterons' input x = v + k u gives u back through the memory curve
+    np.testing.assert_allclose(deflection(model, run, feedback=u), u, atol=1e-10)
+    # and it is the state a quasi-static sweep reaches: sweep the input in tiny steps, solving by iteration
+    bare = replace(TRUE, mu0=0.0, c_d=0.0)
+    state = HysteresisState(bare)
+    x = GRID.v_min
+    for n, v in enumerate(V[:40]):
+        prev = V[n - 1] if n else 0.0
+        for s in np.linspace(prev, v, 400)[1:]:
+            for _ in range(200):  # contraction: |k P'| < 1 here
+                b = TRUE.mu0 + TRUE.c_d * s
+                x_new = s + 0.05 * (b + state.peek(x))
+                if abs(x_new - x) < 1e-13:
+                    break
+                x = x_new
+            state.apply(x)
+        assert u[n] == pytest.approx(TRUE.mu0 + TRUE.c_d * v + state.output, abs=1e-6)
+
+
+def test_a_model_without_effects_reads_and_writes_as_before():
+    d = TRUE.to_dict()
+    assert "effects" not in d
+    back = PreisachModel.from_dict(json.loads(json.dumps(d)))
+    assert back.effects == () and back.to_dict() == d
+
+
+def test_effects_round_trip_through_json_and_a_stored_model(tmp_path):
+    truth, _, y = _truth("creep")
+    fit = fit_with_effects(GRID, [run_of(y)], "ls", [make_effect("creep"), make_effect("first_point")])
+    again = PreisachModel.from_dict(json.loads(json.dumps(fit.model.to_dict())))
+    run = run_of(y)
+    np.testing.assert_array_equal(again.predict_run(run), fit.model.predict_run(run))
+    assert [e["name"] for e in fit.model.to_dict()["effects"]] == ["creep", "first_point"]
+
+
+def test_bad_effect_names_and_effects_a_run_cannot_identify_are_refused():
+    with pytest.raises(IdentifyError, match="known effects are thermal_lag"):
+        make_effect("creeep")
+    with pytest.raises(IdentifyError, match="given twice"):
+        parse_effects("creep,creep")
+    with pytest.raises(IdentifyError, match="options monotone"):
+        make_effect("reversible:smooth")
+    on_walls = GRID.walls[[0, 3, 6, 2, 5, 1, 4]]
+    wall_run = Run("w", on_walls, np.ones(7), np.arange(7.0), np.full(7, 10.0))
+    with pytest.raises(EffectNotIdentifiable, match="every measured input sits on a wall"):
+        fit_with_effects(GRID, [wall_run], "ls", [make_effect("reversible")])
+    rising = Run("r", np.linspace(0.1, 3.9, 20), np.ones(20), np.arange(20.0), np.full(20, 10.0))
+    with pytest.raises(EffectNotIdentifiable, match="never turns back"):
+        fit_with_effects(GRID, [rising], "ls", [make_effect("interaction")])
+    same = Run("s", V, np.ones(V.size), T, np.full(V.size, 20.0))
+    with pytest.raises(EffectNotIdentifiable, match="same dwell"):
+        fit_with_effects(GRID, [same], "ls", [make_effect("thermal_lag")])
+    # a model with creep cannot act on a run without time stamps
+    truth, _, _ = _truth("creep")
+    untimed = Run("u", V, np.ones(V.size), np.zeros(V.size), np.full(V.size, np.nan))
+    with pytest.raises(EffectNotApplicable, match="record\\(s\\) no time"):
+        truth.predict_run(untimed)
+
+
+def test_a_drift_of_another_run_is_re_estimated_held_out_when_validating():
+    truth, params, y = _truth("baseline_drift")
+    fit = fit_with_effects(GRID, [run_of(y)], "ls", [make_effect("baseline_drift")])
+    # another run of the same device with its own, different drift
+    v2, dwell2, t2 = _design(300, seed=4)
+    other = replace(truth, effects=())
+    drift = 0.03 * np.sin(t2 / 1500.0)
+    y2 = predict_run(other, Run("other", v2, np.zeros(300), t2, dwell2)) + drift
+    rep = validate_run(fit.model, Run("other", v2, y2, t2, dwell2), check_range=False)
+    assert set(rep.nuisance) == {"baseline_drift"}
+    plain = np.sqrt(np.mean((predict_run(other, Run("other", v2, y2, t2, dwell2)) - y2) ** 2))
+    assert rep.rmse < 0.2 * plain  # the held-out drift takes most of it away
+
+
+# ---------------------------------------------------------------- the command line
+def _session(tmp_path, y, name="fit.h5", dwell=None):
+    """A real session file of the design above with outputs ``y``: time stamps and dwells recorded."""
+    from identify import Excitation
+    from sessions import ExcitationRecord, SessionWriter
+
+    path = tmp_path / name
+    record = ExcitationRecord.from_excitation(Excitation("random", GRID, V))
+    w = SessionWriter.create(path, record, fsync_interval_s=None)
+    for k in range(V.size):
+        d = float(DWELL[k] if dwell is None else dwell)
+        w.append(float(T[k]), float(V[k]), float(y[k]), measured=True, settled=True, dwell_s=d)
+    w.finish("complete", "test")
+    return path
+
+
+def test_rig_identify_with_stores_the_effects_and_predict_and_validate_use_them(tmp_path):
+    truth, _, y = _truth("joule_power")
+    path = _session(tmp_path, y)
+    run = rig("identify", path, "--with", "joule_power", "--json", "--save", tmp_path / "m.json")
+    assert run.code == 0, run.err
+    out = run.json()
+    assert out["name"] == "ls+joule_power"
+    assert [e["name"] for e in out["effects"]] == ["joule_power"]
+    assert out["effects"][0]["params"]["um_per_V2"] == pytest.approx(0.07, rel=1e-6)
+    stored = read_session(path).models["ls+joule_power"]
+    assert isinstance(stored, ModelRecord) and stored.model.effects[0].params == out["effects"][0]["params"]
+    pred = rig("predict", tmp_path / "m.json", path, "--json")
+    assert pred.code == 0, pred.err
+    assert pred.json()["rmse_um"] < 1e-8
+    val = rig("validate", path, "--model", "ls+joule_power", "--on", path, "--json")
+    assert val.code == 0, val.err
+    assert val.json()["effects"] == ["joule_power"] and val.json()["rmse"] < 1e-8
+
+
+def test_rig_identify_with_bad_effects_is_one_line_and_changes_nothing(tmp_path):
+    truth, _, y = _truth("joule_power")
+    path = _session(tmp_path, y)
+    before = digest(path)
+    assert_one_line_error(rig("identify", path, "--with", "creeep"), "unknown effect 'creeep'", "thermal_lag")
+    assert_one_line_error(rig("identify", path, "--method", "cs", "--with", "creep"), "square", "ls or smooth_nn")
+    # every dwell the same: a thermal lag's time constant cannot be told from its size
+    same = _session(tmp_path, y, "same.h5", dwell=20.0)
+    assert_one_line_error(rig("identify", same, "--with", "thermal_lag"), "thermal_lag cannot be identified",
+                          "--dwells")
+    assert digest(path) == before
