@@ -32,7 +32,7 @@ from .errors import (
     SafeStateError,
     SensorError,
 )
-from .protocols import Calibration, Clock, DeflectionSensor, HeaterOutput, Reading, VoltageWindow
+from .protocols import Calibration, Clock, DeflectionSensor, HeaterOutput, Reading, SafeState, VoltageWindow
 from .rig import Rig, open_rig
 
 __all__ = [
@@ -52,6 +52,7 @@ __all__ = [
     "RealClock",
     "Rig",
     "RigConfig",
+    "SafeState",
     "SafeStateError",
     "SensorError",
     "VirtualClock",

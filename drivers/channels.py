@@ -12,10 +12,14 @@ from __future__ import annotations
 import abc
 import math
 
-from .errors import LimitError, SensorError
+from .errors import DriverError, LimitError, SensorError
 from .guard import delay_keyboard_interrupt
 from .limits import HeaterLimits
-from .protocols import Calibration, Reading, VoltageWindow
+from .protocols import Calibration, Reading, SafeState, VoltageWindow
+
+
+def _is_zero(volts: float) -> bool:
+    return abs(volts) <= 1e-9
 
 
 class GuardedHeater(abc.ABC):
@@ -32,8 +36,12 @@ class GuardedHeater(abc.ABC):
         self.limits = limits
         if 0.0 not in limits.window:
             raise ValueError("the heater limits must allow 0 V (the safe state)")
-        #: The last set-point written (V), or None before the first write.
+        #: The last set-point the instrument acknowledged (V), or None before the first write.
         self.last_written: float | None = None
+        #: A set-point sent whose write raised (V): it may or may not have arrived.
+        self.unacknowledged: float | None = None
+        self._writes = 0
+        self._safe: tuple[int, SafeState] | None = None
 
     @property
     def window(self) -> VoltageWindow:
@@ -53,17 +61,50 @@ class GuardedHeater(abc.ABC):
                     check=exc.check,
                     volts=requested,
                 ) from None
+        self._writes += 1
         with delay_keyboard_interrupt():
-            self._write_voltage(sent)
+            try:
+                self._write_voltage(sent)
+            except BaseException:
+                self.unacknowledged = sent
+                raise
         self.last_written = sent
+        self.unacknowledged = None
 
     def read_voltage(self) -> float:
         """The set-point read back from the instrument (V)."""
         return float(self._read_voltage())
 
     def zero(self) -> None:
-        """Put the heater in the safe state, 0 V."""
+        """Put the heater in the safe state, 0 V (raises if the write fails; see :meth:`safe_state`)."""
         self.set_voltage(0.0)
+
+    def safe_state(self) -> SafeState:
+        """0 V, acknowledged and read back -- or plainly what is not known.  Never raises a driver fault.
+
+        When the last answer was confirmed and nothing was written since,
+        it stands (no traffic); otherwise 0 V is written and read back
+        again, with the link's retries.
+        """
+        if self._safe is not None and self._safe[0] == self._writes and self._safe[1].confirmed:
+            return self._safe[1]
+        last = self.last_written
+        pending = self.unacknowledged if self.unacknowledged is not None and not _is_zero(self.unacknowledged) else None
+        try:
+            self.set_voltage(0.0)
+        except DriverError as exc:
+            state = SafeState(False, False, None, last, f"the 0 V write was not acknowledged ({exc})", pending)
+        else:
+            try:
+                back = 0.0 if self._write_reads_back() else self.read_voltage()
+            except DriverError as exc:
+                state = SafeState(False, True, None, last, f"0 V was acknowledged but could not be read back ({exc})")
+            else:
+                ok = _is_zero(back)
+                why = "" if ok else f"0 V was acknowledged but the output reads back {back:g} V"
+                state = SafeState(ok, True, back, last if not ok else 0.0, why)
+        self._safe = (self._writes, state)
+        return state
 
     def close(self) -> None:
         """Release the transport (does *not* change the output; :class:`Rig` zeroes first)."""
@@ -71,6 +112,10 @@ class GuardedHeater(abc.ABC):
     def _on_wire(self, volts: float) -> float:
         """The value the instrument will actually receive for ``volts`` (default: exact)."""
         return volts
+
+    def _write_reads_back(self) -> bool:
+        """Whether :meth:`_write_voltage` itself reads the set-point back and raises on a mismatch."""
+        return False
 
     @abc.abstractmethod
     def _write_voltage(self, volts: float) -> None:

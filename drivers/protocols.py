@@ -72,6 +72,39 @@ class Reading:
     calibration: Calibration
 
 
+@dataclass(frozen=True)
+class SafeState:
+    """What is *known* about the heater after it was asked to go to 0 V, the safe state.
+
+    ``confirmed`` only when a 0 V write was acknowledged by the instrument
+    and the output, read back, is 0 V: only then may anything say "heater
+    at 0 V".  Otherwise ``problem`` says what failed, and ``last_V`` is the
+    last set-point the instrument acknowledged (V; ``None`` if none) --
+    what a dead or hung instrument keeps driving -- and ``unacknowledged_V``
+    a later non-zero set-point that was sent but never acknowledged (it may
+    have arrived).
+    """
+
+    confirmed: bool
+    acknowledged: bool
+    readback_V: float | None
+    last_V: float | None
+    problem: str = ""
+    unacknowledged_V: float | None = None
+
+    def describe(self) -> str:
+        """One clause for messages and the session log: the fact, or plainly that it is unknown."""
+        if self.confirmed:
+            return "heater at 0 V (0 V written and read back)"
+        held = []
+        if self.last_V is not None:
+            held.append(f"{self.last_V:g} V, the last set-point the instrument acknowledged")
+        if self.unacknowledged_V is not None and self.unacknowledged_V != self.last_V:
+            held.append(f"{self.unacknowledged_V:g} V, sent without acknowledgment")
+        holding = f"it may still be at {' or at '.join(held)}" if held else "it may still be on"
+        return f"heater state UNKNOWN: {holding}; switch the heater supply off at the bench and check it ({self.problem})"
+
+
 @runtime_checkable
 class HeaterOutput(Protocol):
     """The heater voltage output (the DAQ's analogue output, paper figure 7(b))."""
@@ -91,6 +124,15 @@ class HeaterOutput(Protocol):
 
     def read_voltage(self) -> float:
         """The set-point the output is actually holding, read back from the instrument (V)."""
+        ...
+
+    def safe_state(self) -> SafeState:
+        """Drive the heater to 0 V and say what is known afterwards (never raises a driver fault).
+
+        The answer is ``confirmed`` only after the instrument acknowledged
+        the 0 V write and read back 0 V; what ``rig`` reports about the
+        heater rests on it.
+        """
         ...
 
 

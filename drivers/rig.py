@@ -10,7 +10,9 @@
 Opening connects (with the configured retries) and puts the heater at 0 V.
 Leaving the ``with`` block -- normally, on any exception, on Ctrl-C --
 returns the heater to 0 V (the write itself protected from a second
-Ctrl-C) and closes the link.  If 0 V cannot be confirmed written,
+Ctrl-C) and closes the link.  What is known about the heater then is
+:attr:`Rig.heater_state` (a :class:`~drivers.protocols.SafeState`): 0 V
+*confirmed* (acknowledged and read back), or not.  If it is not,
 :class:`SafeStateError` says so (attached as a note when another exception
 is already on its way out, so the original cause is never hidden).
 """
@@ -27,7 +29,7 @@ from .clock import make_clock
 from .config import RigConfig, default_config
 from .errors import DeviceError, DriverError, SafeStateError
 from .guard import delay_keyboard_interrupt
-from .protocols import Clock
+from .protocols import Clock, SafeState
 from .sim.device import SimVO2
 
 
@@ -43,29 +45,34 @@ class Rig:
     device: SimVO2 | None = None
     _closers: list[Callable[[], None]] = field(default_factory=list, repr=False)
     closed: bool = False
+    #: What is known about the heater after the last :meth:`safe_state` (None: not asked yet).
+    heater_state: SafeState | None = None
 
     def zero(self) -> None:
-        """Heater to 0 V now (protected from Ctrl-C while on the wire)."""
+        """Heater to 0 V now (protected from Ctrl-C while on the wire); raises if the write fails."""
         with delay_keyboard_interrupt():
             self.heater.zero()
 
+    def safe_state(self) -> SafeState:
+        """Heater to 0 V, and what is known afterwards (kept in :attr:`heater_state`); never raises a fault."""
+        self.heater_state = self.heater.safe_state()
+        return self.heater_state
+
     def close(self) -> None:
-        """Heater to 0 V, then release the links.  Idempotent."""
+        """Heater to 0 V (confirmed, or :class:`SafeStateError`), then release the links.  Idempotent."""
         if self.closed:
             return
         self.closed = True
         try:
-            self.zero()
-        except DriverError as exc:
-            raise SafeStateError(
-                f"could not return the heater to 0 V ({exc}); check the bench, the heater may still be on"
-            ) from exc
+            state = self.safe_state()
         finally:
             for close in self._closers:
                 try:
                     close()
                 except Exception:  # closing a dead link must not hide anything
                     pass
+        if not state.confirmed:
+            raise SafeStateError(state.describe())
 
     def __enter__(self) -> "Rig":
         return self

@@ -178,6 +178,9 @@ class SerialHeater(GuardedHeater):
     def _read_voltage(self) -> float:
         return self.link.query_number(self.commands.query_voltage)
 
+    def _write_reads_back(self) -> bool:
+        return self.link.cfg.verify_set
+
 
 class SerialPSD(PSDSensor):
     """The PSD voltage answered by a query."""

@@ -177,7 +177,9 @@ def test_a_link_that_never_comes_back_raises_and_says_the_heater_state_is_unknow
                 bench.call(bench.stop_endpoint("modbus"))
                 rig.sensor.read()
         notes = getattr(info.value, "__notes__", [])
-        assert any("could not return the heater to 0 V" in n for n in notes)
+        assert any("heater state UNKNOWN: it may still be at 2 V" in n for n in notes), notes
+        assert not rig.heater_state.confirmed and not rig.heater_state.acknowledged
+        assert rig.heater_state.last_V == 2.0 and bench.device.applied_voltage == 2.0
 
 
 def test_nothing_listening_fails_quickly_and_cleanly():

@@ -9,7 +9,8 @@ import click
 from click.core import ParameterSource
 
 from drivers.config import RigConfig, default_config, load_config, parse_config
-from drivers.errors import ConfigError, DriverError
+from drivers.errors import ConfigError, DriverError, SafeStateError
+from drivers.protocols import SafeState
 from drivers.guard import terminate_as_interrupt
 from drivers.rig import open_rig
 from rig.acquisition import (
@@ -153,6 +154,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
     bar = ProgressBar(total, start, enabled=sys.stderr.isatty() if progress is None else progress)
     switch = PauseSwitch()
     hooks = Hooks(switch, terminal_prompt(bar), bar.update)
+    rig = None
     try:
         with terminate_as_interrupt(), switch.installed(), open_rig(cfg) as rig:
             if resume_path is not None:
@@ -162,19 +164,30 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
                                           hooks=hooks)
     except DriverError as exc:
         bar.close()
-        if not target.exists():  # failed before the session was created
-            raise
-        s = read_session(target)
-        raise RigFault(
-            f"{exc} -- heater at 0 V; session {target} is {s.status.value} with {s.n_samples} of "
-            f"{s.excitation.n_points} points kept; continue with: rig acquire --resume {target}"
-        ) from None
+        if rig is None or rig.heater_state is None or not target.exists():
+            raise  # nothing was driven, or the session was never created: the error says it all
+        after = _after_fault(target, rig.heater_state)
+        raise RigFault(after if isinstance(exc, SafeStateError) else f"{exc} -- {after}") from None
     bar.close()
     _report(summarise(read_session(target), outcome), as_json)
     if outcome.status is Status.ABORTED:
         click.echo(
-            f"aborted ({outcome.message}): heater at 0 V, every sample kept; "
-            f"continue with: rig acquire --resume {target}", err=True,
+            f"aborted ({outcome.message}): {outcome.heater.describe()}; every sample kept; "
+            f"{_resume_advice(target, outcome.heater)}", err=True,
         )
         raise click.exceptions.Exit(EXIT_ABORTED)
 
+
+def _resume_advice(target: Path, heater: SafeState) -> str:
+    if heater.confirmed:
+        return f"continue with: rig acquire --resume {target}"
+    return f"once the bench is safe and the instrument answers, continue with: rig acquire --resume {target}"
+
+
+def _after_fault(target: Path, heater: SafeState) -> str:
+    """What a fault left behind, in one clause: the heater as known, the session, and what to do."""
+    s = read_session(target)
+    kept = f"session {target} is {s.status.value} with {s.n_samples} of {s.excitation.n_points} points kept"
+    if s.status is Status.COMPLETE:
+        return f"{heater.describe()}; {kept}"
+    return f"{heater.describe()}; {kept}; {_resume_advice(target, heater)}"
