@@ -104,6 +104,9 @@ class ModbusLink:
             except (ModbusException, OSError) as exc:
                 self._client.close()  # a late reply must never answer the next request
                 raise _retryable(exc)(str(exc)) from None
+            except BaseException:  # interrupted mid-transaction (Ctrl-C, SIGTERM): same rule
+                self._client.close()
+                raise
             if isinstance(response, ExceptionResponse) or response.isError():
                 code = int(getattr(response, "exception_code", 0))
                 error = exception_response(code, f"{what} on {self.endpoint}")

@@ -95,6 +95,9 @@ class SerialLink:
         except (serial.SerialException, OSError) as exc:
             self.close()
             raise LinkDropped(f"reading the reply to '{line}': {exc}") from None
+        except BaseException:  # interrupted while the reply was on its way: it must not answer the next query
+            self.close()
+            raise
         if not raw.endswith(self._eol):
             self.close()  # a late reply must not answer the next query
             raise NoReply(f"'{line}' got {'no reply' if not raw else repr(raw)} within {self.cfg.timeout_s:g} s")

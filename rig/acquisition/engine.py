@@ -117,9 +117,9 @@ class Sequencer:
         held = "nothing applied yet" if math.isnan(self._setpoint) else f"heater held at {self._setpoint:g} V"
         self.recorder.log("paused", f"Ctrl-C at point {k} of {n} ({phase}); {held}")
         decision = self.on_pause(info) if self.on_pause is not None else "abort"
-        if decision != "resume":
-            raise Aborted(f"aborted by the operator at point {k} of {n}")
         assert self.pause is not None
+        if decision != "resume":
+            raise self.pause.abort(f"aborted by the operator at point {k} of {n}")
         self.pause.clear()
         self.recorder.log("continued", f"resumed by the operator at point {k} ({phase})")
 

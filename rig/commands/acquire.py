@@ -11,7 +11,6 @@ from click.core import ParameterSource
 from drivers.config import RigConfig, default_config, load_config, parse_config
 from drivers.errors import ConfigError, DriverError, SafeStateError
 from drivers.protocols import SafeState
-from drivers.guard import terminate_as_interrupt
 from drivers.rig import open_rig
 from rig.acquisition import (
     AcquisitionError,
@@ -156,7 +155,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
     hooks = Hooks(switch, terminal_prompt(bar), bar.update)
     rig = None
     try:
-        with terminate_as_interrupt(), switch.installed(), open_rig(cfg) as rig:
+        with switch.installed(linger=True), open_rig(cfg) as rig:
             if resume_path is not None:
                 outcome = resume_acquisition(rig, resume_path, hooks=hooks)
             else:
@@ -168,14 +167,26 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
             raise  # nothing was driven, or the session was never created: the error says it all
         after = _after_fault(target, rig.heater_state)
         raise RigFault(after if isinstance(exc, SafeStateError) else f"{exc} -- {after}") from None
+    except KeyboardInterrupt as exc:  # an abort outside the run itself (opening the rig, closing it)
+        bar.close()
+        heater = rig.heater_state if rig is not None else None
+        said = heater.describe() if heater is not None else "the heater was not driven"
+        kept = ""
+        if target.exists() and rig is not None:
+            s = read_session(target)
+            kept = f"; session {target} is {s.status.value} with {s.n_samples} of {s.excitation.n_points} points kept"
+        click.echo(f"aborted ({exc or 'interrupted'}): {said}{kept}", err=True)
+        raise click.exceptions.Exit(EXIT_ABORTED) from None
     bar.close()
     _report(summarise(read_session(target), outcome), as_json)
     if outcome.status is Status.ABORTED:
         click.echo(
-            f"aborted ({outcome.message}): {outcome.heater.describe()}; every sample kept; "
-            f"{_resume_advice(target, outcome.heater)}", err=True,
+            f"aborted ({outcome.message}): {rig.heater_state.describe()}; every sample kept; "
+            f"{_resume_advice(target, rig.heater_state)}", err=True,
         )
         raise click.exceptions.Exit(EXIT_ABORTED)
+    if not rig.heater_state.confirmed:  # complete, but the heater could not be confirmed at 0 V
+        raise RigFault(_after_fault(target, rig.heater_state))
 
 
 def _resume_advice(target: Path, heater: SafeState) -> str:
