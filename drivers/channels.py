@@ -12,7 +12,7 @@ from __future__ import annotations
 import abc
 import math
 
-from .errors import DriverError, LimitError, SensorError
+from .errors import ContinuityError, DriverError, LimitError, SensorError
 from .guard import delay_keyboard_interrupt
 from .limits import HeaterLimits
 from .protocols import Calibration, Reading, SafeState, VoltageWindow
@@ -20,6 +20,11 @@ from .protocols import Calibration, Reading, SafeState, VoltageWindow
 
 def _is_zero(volts: float) -> bool:
     return abs(volts) <= 1e-9
+
+
+def _close(a: float, b: float) -> bool:
+    """Two set-points (V) that are the same as far as the wire and a read-back can tell."""
+    return math.isclose(a, b, rel_tol=1e-6, abs_tol=1e-6)
 
 
 class GuardedHeater(abc.ABC):
@@ -42,6 +47,8 @@ class GuardedHeater(abc.ABC):
         self.unacknowledged: float | None = None
         self._writes = 0
         self._safe: tuple[int, SafeState] | None = None
+        self._epoch: int | None = None  # the link epoch last verified (None: not yet)
+        self._identity: object | None = None
 
     @property
     def window(self) -> VoltageWindow:
@@ -106,6 +113,49 @@ class GuardedHeater(abc.ABC):
         self._safe = (self._writes, state)
         return state
 
+    def verify(self) -> bool:
+        """Whether the link was re-established since the last call -- after checking that it is still
+        the same instrument holding the same set-point, and sending that set-point again.
+
+        Nothing goes on the wire when the link has not reconnected.  After a
+        reconnection the instrument's identity (a boot id, where it has one)
+        is compared with the one read at the first call, and its output read
+        back and compared with the last acknowledged set-point; then the
+        set-point is written again.  Raises :class:`ContinuityError` when the
+        instrument restarted or lost its output -- its output and the beam's
+        memory state cannot be trusted -- and a driver fault when it cannot
+        be reached.  True tells the caller that what it measured spans a
+        reconnection.
+        """
+        epoch = self._link_epoch()
+        if self._epoch is None:  # the first call: the instrument as it is now is the reference
+            self._identity = self._instrument_identity()
+            self._epoch = self._link_epoch()
+            return False
+        if epoch == self._epoch:
+            return False
+        for _ in range(3):  # the checks themselves may reconnect again
+            identity = self._instrument_identity()
+            if identity != self._identity:
+                raise ContinuityError(
+                    f"the instrument restarted while the link was down (boot id {self._identity!r} -> "
+                    f"{identity!r}): its output and the beam's memory state were lost"
+                )
+            if self.last_written is not None:
+                back = self.read_voltage()
+                if not _close(back, self.last_written):
+                    raise ContinuityError(
+                        f"after the link came back the output reads {back:g} V instead of the set-point "
+                        f"{self.last_written:g} V: the instrument lost its output (restarted, or was reset), "
+                        "so the beam's memory state cannot be trusted"
+                    )
+                self.set_voltage(self.last_written)
+            if self._link_epoch() == epoch:
+                break
+            epoch = self._link_epoch()
+        self._epoch = epoch
+        return True
+
     def close(self) -> None:
         """Release the transport (does *not* change the output; :class:`Rig` zeroes first)."""
 
@@ -116,6 +166,14 @@ class GuardedHeater(abc.ABC):
     def _write_reads_back(self) -> bool:
         """Whether :meth:`_write_voltage` itself reads the set-point back and raises on a mismatch."""
         return False
+
+    def _link_epoch(self) -> int:
+        """A number that changes whenever the link to the instrument is re-established (default: never)."""
+        return 0
+
+    def _instrument_identity(self) -> object | None:
+        """Something that changes when the instrument restarts (a boot id), or None when it offers nothing."""
+        return None
 
     @abc.abstractmethod
     def _write_voltage(self, volts: float) -> None:

@@ -133,20 +133,35 @@ class ModbusConfig(LinkConfig):
     unit_id: int = setting("Modbus unit (slave) id of the instrument", default=1, minimum=0, maximum=247)
     setpoint: RegisterPoint = setting("[modbus.setpoint] the heater set-point register (V), a holding register")
     psd: InputPoint = setting("[modbus.psd] the PSD voltage register (V)")
+    boot_id: InputPoint | None = setting(
+        "[modbus.boot_id] optional: a register whose value changes whenever the instrument restarts "
+        "(a boot counter or random boot id), read on opening and after every reconnection",
+        default=None,
+    )
+
+    def points(self) -> dict[str, RegisterPoint]:
+        """Every configured register by its table name (``setpoint``, ``psd``, and the optional ones)."""
+        named = {"setpoint": self.setpoint, "psd": self.psd, "boot_id": self.boot_id}
+        return {name: p for name, p in named.items() if p is not None}
 
     def __post_init__(self) -> None:
         if self.transport == "rtu" and not self.url:
             raise ValueError("transport = 'rtu' needs url (the serial port)")
         if self.setpoint.table != "holding":
             raise ValueError("the heater set-point must be a holding register (it is written)")
-        if overlap(self.setpoint, self.psd):
-            raise ValueError("the set-point and PSD registers overlap")
+        named = list(self.points().items())
+        for i, (a, pa) in enumerate(named):
+            for b, pb in named[i + 1:]:
+                if overlap(pa, pb):
+                    raise ValueError(f"the {a} and {b} registers overlap")
 
     @classmethod
     def simulated(cls, **changes: Any) -> "ModbusConfig":
-        """The simulated bench's default: float32 set-point in holding 0, float32 PSD in input 0."""
+        """The simulated bench's default: float32 set-point in holding 0, float32 PSD in input 0,
+        the boot id as a uint32 in input 2."""
         changes.setdefault("setpoint", RegisterPoint(address=0))
         changes.setdefault("psd", InputPoint(address=0))
+        changes.setdefault("boot_id", InputPoint(address=2, type="uint32"))
         return cls(**changes)
 
     def endpoint(self) -> str:

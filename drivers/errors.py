@@ -50,6 +50,11 @@ class SensorError(DriverError):
     """The PSD gave no usable reading (NaN, or saturated at a rail) after the retries."""
 
 
+class ContinuityError(ConnectionFailed):
+    """After a reconnection the instrument is not the one the run was talking to: it restarted (its boot
+    id changed) or lost its output.  Whatever state the beam was in -- its hysteresis memory -- is gone."""
+
+
 class SafeStateError(DriverError):
     """The heater could not be confirmed at 0 V when it had to be."""
 

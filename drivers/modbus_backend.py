@@ -72,13 +72,18 @@ class ModbusLink:
         self._sleep = sleep
         self._client = make_client(cfg)
         self._backoff = Backoff(cfg.retries, cfg.backoff_s, cfg.backoff_max_s)
-        #: Reconnections made since opening (for diagnostics and tests).
+        #: Reconnections attempted since opening (for diagnostics and tests).
         self.reconnections = 0
+        #: Connections established since opening: the first is 1, each later one a reconnection.
+        self.connections = 0
 
     # ------------------------------------------------------------ connection
     def _connect_once(self) -> None:
+        if self._client.connected:
+            return
         if not self._client.connect():
             raise LinkDropped("refused or unreachable")
+        self.connections += 1
 
     def _reconnect(self) -> None:
         self._client.close()
@@ -145,7 +150,7 @@ class ModbusLink:
 
 
 class ModbusHeater(GuardedHeater):
-    """The heater set-point in a holding register."""
+    """The heater set-point in a holding register; the instrument's boot id in ``[modbus.boot_id]``, if any."""
 
     def __init__(self, link: ModbusLink, limits: HeaterLimits) -> None:
         super().__init__(limits)
@@ -166,6 +171,13 @@ class ModbusHeater(GuardedHeater):
 
     def _read_voltage(self) -> float:
         return self.link.read(self.point, "the heater set-point")
+
+    def _link_epoch(self) -> int:
+        return self.link.connections
+
+    def _instrument_identity(self) -> float | None:
+        boot = self.link.cfg.boot_id
+        return None if boot is None else self.link.read(boot, "the boot id")
 
 
 class ModbusPSD(PSDSensor):

@@ -126,6 +126,18 @@ class HeaterOutput(Protocol):
         """The set-point the output is actually holding, read back from the instrument (V)."""
         ...
 
+    def verify(self) -> bool:
+        """Whether the link to the instrument was re-established since the last call.
+
+        After a reconnection the instrument is checked to be the same one
+        (a boot id, where it offers one) still holding the last set-point,
+        which is then sent again; if it restarted or lost its output,
+        :class:`drivers.errors.ContinuityError` is raised.  The caller marks
+        whatever it measured across a reconnection.  Backends without a
+        link (the in-process simulator) always answer False.
+        """
+        ...
+
     def safe_state(self) -> SafeState:
         """Drive the heater to 0 V and say what is known afterwards (never raises a driver fault).
 

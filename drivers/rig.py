@@ -155,6 +155,7 @@ def open_rig(
     rig = Rig(heater, sensor, clk, cfg, description, device if cfg.driver == "sim" else None, closers)
     try:
         rig.zero()
+        heater.verify()  # the instrument as it is now (its boot id) is the reference for reconnections
     except DriverError as exc:
         for close in closers:
             close()

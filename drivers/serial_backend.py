@@ -44,6 +44,8 @@ class SerialLink:
         self._backoff = Backoff(cfg.retries, cfg.backoff_s, cfg.backoff_max_s)
         self._eol = cfg.read_termination.encode(cfg.encoding)
         self.reconnections = 0
+        #: Times the port was opened: the first is 1, each later one a reconnection.
+        self.connections = 0
 
     # ------------------------------------------------------------ connection
     def _open_once(self) -> None:
@@ -56,6 +58,7 @@ class SerialLink:
             )
         except (serial.SerialException, OSError, ValueError) as exc:
             raise LinkDropped(str(exc) if self.cfg.url in str(exc) else f"cannot open {self.cfg.url}: {exc}") from None
+        self.connections += 1
         sock = getattr(self._port, "_socket", None)  # socket:// -- a command then a query must not wait for Nagle
         if isinstance(sock, socket.socket):
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -183,6 +186,9 @@ class SerialHeater(GuardedHeater):
 
     def _write_reads_back(self) -> bool:
         return self.link.cfg.verify_set
+
+    def _link_epoch(self) -> int:
+        return self.link.connections
 
 
 class SerialPSD(PSDSensor):

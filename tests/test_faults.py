@@ -14,10 +14,13 @@ import time
 import numpy as np
 import pytest
 
-from sessions import Status, read_session
+from sessions import SampleFlag, Status, read_session
 
 from .acquirekit import Child, wait_for_samples
-from .faultkit import SimServer
+from .faultkit import FAULT_MAP, SimServer
+
+#: The register map with the instrument's boot id (the simulated bench serves it at input 2).
+BOOT_MAP = FAULT_MAP + "[modbus.boot_id]\naddress = 2\ntype = 'uint32'\n"
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -108,3 +111,64 @@ def test_a_burst_of_signals_ends_aborted_with_exit_130_and_the_heater_at_0V(tmp_
         assert s.status is Status.ABORTED and s.n_samples >= 5, (run, s.events)
         assert [e.event for e in s.events].count("aborted") == 1
         assert "heater at 0 V" in s.events[-1].message
+
+
+# ---------------------------------------------------------------- finding 2: reconnecting with integrity
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory, shared_server):
+    """The uninterrupted run every faulty run is compared with (the fast device is exact and noise-free)."""
+    d = tmp_path_factory.mktemp("reference")
+    path = d / "reference.h5"
+    code, out, err = Child("--config", shared_server.client_config(d / "rig.toml"), *RUN, "--out", path).finish()
+    assert code == 0, err
+    return read_session(path)
+
+
+def test_an_instrument_restarted_in_a_fresh_state_stops_the_run_and_resume_completes_it_right(tmp_path, reference):
+    with SimServer(tmp_path, register_map=BOOT_MAP) as server:
+        path = tmp_path / "run.h5"
+        cfg = server.client_config(tmp_path / "rig.toml", retries=40)  # ~4 s of reconnection attempts
+        child = Child("--config", cfg, *RUN, "--out", path)
+        wait_for_samples(path, 8, child=child)
+        server.restart()  # killed, and a fresh device listens on the same port ~1 s later
+        code, out, err = child.finish(timeout=60)
+        s = read_session(path)
+        # not one recorded sample comes from the fresh device: every one is what an uninterrupted run records
+        np.testing.assert_array_equal(s.outputs, reference.outputs[: s.n_samples])
+        line = one_line(err)
+        assert code == 3 and s.status is Status.FAILED and s.n_samples < reference.n_samples, err
+        assert "restarted" in line and "heater at 0 V (0 V written and read back)" in line
+        assert f"rig acquire --resume {path}" in line
+        assert "ContinuityError" in s.events[-1].message and "boot id" in s.events[-1].message
+        assert server.accepted_volts()[-1] == 0.0  # the fresh device got the safe state last
+        code, out, err = Child("--resume", path, "--json").finish(timeout=60)
+        assert code == 0, err
+        done = read_session(path)
+        np.testing.assert_array_equal(done.inputs, reference.inputs)
+        np.testing.assert_array_equal(done.outputs, reference.outputs)
+        assert done.status is Status.COMPLETE and not np.any(done.samples["flags"] & SampleFlag.RECONNECTED)
+
+
+def test_an_instrument_that_hangs_and_comes_back_is_checked_its_setpoint_resent_and_the_points_flagged(
+        tmp_path, reference):
+    with SimServer(tmp_path, register_map=BOOT_MAP) as server:
+        path = tmp_path / "run.h5"
+        cfg = server.client_config(tmp_path / "rig.toml", timeout=0.2, retries=40)
+        child = Child("--config", cfg, *RUN, "--out", path)
+        wait_for_samples(path, 8, child=child)
+        server.stop()
+        time.sleep(1.0)  # hung for 1 s: five timeouts of the client, which reconnects each time
+        server.cont()
+        code, out, err = child.finish(timeout=60)
+        assert code == 0, err
+        s = read_session(path)
+        flagged = np.flatnonzero(s.samples["flags"] & SampleFlag.RECONNECTED)
+        assert flagged.size >= 1, [e.event for e in s.events]
+        assert f"{flagged.size} point(s) measured across a reconnection" in out
+        # the instrument held its output and the beam its state: every sample is right, the flagged ones too
+        np.testing.assert_array_equal(s.outputs, reference.outputs)
+        assert s.status is Status.COMPLETE and [e.event for e in s.events].count("reconnected") == flagged.size
+        # the set-point of the flagged point was sent again after the reconnection
+        volts = server.accepted_volts()
+        v = s.inputs[flagged[0]]
+        assert any(a == b == np.float32(v) for a, b in zip(volts, volts[1:]))

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import secrets
 import threading
 from collections import deque
 from dataclasses import dataclass, field
@@ -104,8 +105,11 @@ class SimVO2:
 
     # ------------------------------------------------------------ lifecycle
     def reset(self) -> None:
-        """Power-cycle: ambient temperature, 0 V, negative saturation, noise re-seeded."""
+        """Power-cycle: ambient temperature, 0 V, negative saturation, noise re-seeded, a new :attr:`boot_id`."""
         with self._lock:
+            #: A random 32-bit number drawn at every power-up: a client that reads a different one after
+            #: reconnecting knows the instrument restarted (and lost its output and the beam's memory state).
+            self.boot_id = secrets.randbits(32)
             self._rng = np.random.default_rng(self.params.seed)
             self._t = self.clock.now()
             self._v = 0.0
