@@ -8,8 +8,12 @@ and what was printed.  Every wait is bounded (pytest-timeout, plus timeouts on e
 from __future__ import annotations
 
 import os
+import shutil
 import signal
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +21,7 @@ import pytest
 from sessions import SampleFlag, Status, read_session
 
 from .acquirekit import Child, wait_for_samples
+from .conftest import digest
 from .faultkit import FAULT_MAP, SimServer
 
 #: The register map with the instrument's boot id (the simulated bench serves it at input 2).
@@ -172,3 +177,87 @@ def test_an_instrument_that_hangs_and_comes_back_is_checked_its_setpoint_resent_
         volts = server.accepted_volts()
         v = s.inputs[flagged[0]]
         assert any(a == b == np.float32(v) for a, b in zip(volts, volts[1:]))
+
+
+# ---------------------------------------------------------------- finding 4: storage faults
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 1 MiB tmpfs mounted for the test (root only; skipped with the reason elsewhere)."""
+    if not sys.platform.startswith("linux") or os.geteuid() != 0 or shutil.which("mount") is None:
+        pytest.skip("a small file system for the disk-full test needs root on Linux (mount -t tmpfs)")
+    mnt = tmp_path / "disk"
+    mnt.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m,mode=0755", "tmpfs", str(mnt)],
+                          capture_output=True, text=True, timeout=30)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True, timeout=30)
+
+
+def fill(disk: Path) -> Path:
+    """Fill ``disk`` to the last byte (another program eating the space); returns the filler."""
+    filler = disk / "filler"
+    fd = os.open(filler, os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+    try:
+        for block in (1 << 16, 1 << 12, 1):
+            try:
+                while os.write(fd, bytes(block)):
+                    pass
+            except OSError:
+                pass
+    finally:
+        os.close(fd)
+    return filler
+
+
+#: A long run of quick points (the disk fills at the next 256-row chunk of /samples).
+QUICK = ("--sequence", "random", "--points", 1500, "--dwell", 0.0, "--readings", 1)
+
+
+def test_a_full_disk_stops_the_run_with_the_heater_at_0V_the_data_kept_and_failed_logged_once(
+        tmp_path, small_disk, shared_server):
+    path = small_disk / "run.h5"
+    cfg = shared_server.client_config(tmp_path / "rig.toml")
+    child = Child("--config", cfg, *QUICK, "--out", path)
+    wait_for_samples(path, 10, child=child)
+    filler = fill(small_disk)
+    code, out, err = child.finish(timeout=60)
+    line = one_line(err)
+    assert code == 3, err  # not 139 (a segfault), not 1 (an internal error)
+    assert "No space left on device" in line and "heater at 0 V (0 V written and read back)" in line
+    assert shared_server.accepted_volts()[-1] == 0.0
+    s = read_session(path)
+    assert s.status is Status.FAILED and [e.event for e in s.events].count("failed") == 1
+    assert s.n_samples >= 10 and np.array_equal(s.samples["index"], np.arange(s.n_samples))
+    assert "StorageError" in s.events[-1].message
+    # resuming while the disk is still full: one line, exit 3, nothing touched
+    before = digest(path)
+    code, out, err = Child("--resume", path).finish(timeout=60)
+    line = one_line(err)
+    assert code == 3 and "No space left on device" in line and "internal error" not in line, err
+    assert digest(path) == before and sorted(p.name for p in small_disk.iterdir()) == ["filler", "run.h5"]
+    # space again: the run is completed from where it stopped
+    filler.unlink()
+    code, out, err = Child("--resume", path, "--json").finish(timeout=60)
+    assert code == 0, err
+    done = read_session(path)
+    assert done.status is Status.COMPLETE and done.n_samples == 1500
+    np.testing.assert_array_equal(done.samples[: s.n_samples], s.samples)
+
+
+def test_a_session_removed_during_the_run_stops_it_and_is_written_back(tmp_path, shared_server):
+    path = tmp_path / "run.h5"
+    child = Child("--config", shared_server.client_config(tmp_path / "rig.toml"), *RUN, "--out", path)
+    wait_for_samples(path, 5, child=child)
+    path.unlink()
+    code, out, err = child.finish(timeout=60)
+    line = one_line(err)
+    assert code == 3 and "removed during the run" in line and "heater at 0 V (0 V written and read back)" in line
+    assert shared_server.accepted_volts()[-1] == 0.0
+    s = read_session(path)  # written back from the still-open file
+    assert s.status is Status.FAILED and [e.event for e in s.events].count("failed") == 1
+    assert s.n_samples >= 5 and np.array_equal(s.samples["index"], np.arange(s.n_samples))
+    assert sorted(p.name for p in tmp_path.iterdir() if p.suffix == ".h5") == ["run.h5"]

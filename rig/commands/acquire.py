@@ -31,7 +31,7 @@ from rig.acquisition import (
 )
 from rig.acquisition.progress import ProgressBar, format_duration, terminal_prompt
 from rig.acquisition.runner import resumable
-from sessions import DataFileError, Session, Status, read_session
+from sessions import DataFileError, Session, Status, StorageError, read_session
 
 from ..errors import RigFault
 from ..output import print_json
@@ -164,11 +164,11 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
             else:
                 outcome = run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes,
                                           hooks=hooks)
-    except DriverError as exc:
+    except (DriverError, StorageError) as exc:
         bar.close()
         if rig is None or rig.heater_state is None or not target.exists():
             raise  # nothing was driven, or the session was never created: the error says it all
-        after = _after_fault(target, rig.heater_state)
+        after = _after_fault(target, rig.heater_state, exc)
         raise RigFault(after if isinstance(exc, SafeStateError) else f"{exc} -- {after}") from None
     except KeyboardInterrupt as exc:  # an abort outside the run itself (opening the rig, closing it)
         bar.close()
@@ -192,16 +192,21 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         raise RigFault(_after_fault(target, rig.heater_state))
 
 
-def _resume_advice(target: Path, heater: SafeState) -> str:
-    if heater.confirmed:
-        return f"continue with: rig acquire --resume {target}"
-    return f"once the bench is safe and the instrument answers, continue with: rig acquire --resume {target}"
+def _resume_advice(target: Path, heater: SafeState, fault: BaseException | None = None) -> str:
+    if not heater.confirmed:
+        return f"once the bench is safe and the instrument answers, continue with: rig acquire --resume {target}"
+    if isinstance(fault, StorageError):
+        return f"free space (or mend the disk), then continue with: rig acquire --resume {target}"
+    return f"continue with: rig acquire --resume {target}"
 
 
-def _after_fault(target: Path, heater: SafeState) -> str:
+def _after_fault(target: Path, heater: SafeState, fault: BaseException | None = None) -> str:
     """What a fault left behind, in one clause: the heater as known, the session, and what to do."""
-    s = read_session(target)
+    try:
+        s = read_session(target)
+    except DataFileError as exc:
+        return f"{heater.describe()}; the session cannot be read back ({exc})"
     kept = f"session {target} is {s.status.value} with {s.n_samples} of {s.excitation.n_points} points kept"
     if s.status is Status.COMPLETE:
         return f"{heater.describe()}; {kept}"
-    return f"{heater.describe()}; {kept}; {_resume_advice(target, heater)}"
+    return f"{heater.describe()}; {kept}; {_resume_advice(target, heater, fault)}"
