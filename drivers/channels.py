@@ -16,6 +16,7 @@ from .errors import ContinuityError, DriverError, LimitError, SensorError
 from .guard import delay_keyboard_interrupt
 from .limits import HeaterLimits
 from .protocols import Calibration, Reading, SafeState, VoltageWindow
+from .setpoints import SetpointRules
 
 
 def _is_zero(volts: float) -> bool:
@@ -34,13 +35,17 @@ class GuardedHeater(abc.ABC):
     :meth:`_write_voltage` and :meth:`_read_voltage`, and
     :meth:`_on_wire` when the instrument rounds (a scaled integer register,
     a printed decimal): the value it returns is checked against the limits
-    too, so rounding can never push a set-point over one.
+    too, so rounding can never push a set-point over one (see
+    :class:`drivers.setpoints.SetpointRules`, which also holds the
+    instrument's full scale where it is known).
     """
 
-    def __init__(self, limits: HeaterLimits) -> None:
+    def __init__(self, limits: HeaterLimits, full_scale_V: float | None = None) -> None:
         self.limits = limits
         if 0.0 not in limits.window:
             raise ValueError("the heater limits must allow 0 V (the safe state)")
+        #: Every rule a set-point passes, the wire's rounding and the instrument's full scale included.
+        self.rules = SetpointRules(limits, lambda v: self._on_wire(v), full_scale_V)
         #: The last set-point the instrument acknowledged (V), or None before the first write.
         self.last_written: float | None = None
         #: A set-point sent whose write raised (V): it may or may not have arrived.
@@ -52,22 +57,23 @@ class GuardedHeater(abc.ABC):
 
     @property
     def window(self) -> VoltageWindow:
-        return self.limits.window
+        """The set-points accepted (V): the limits, with edges pulled in to what the wire carries."""
+        return self.rules.window
+
+    @property
+    def full_scale_V(self) -> float | None:
+        """The instrument's output range +-V, when it (or the configuration) says; else None."""
+        return self.rules.full_scale_V
+
+    def check_setpoint(self, volts: float) -> float:
+        """The value the instrument would receive for ``volts`` (V); :class:`LimitError` (nothing written) if
+        any rule refuses it: not finite, outside the range or the current limit -- as asked or as carried by
+        the wire -- or beyond the instrument's full scale."""
+        return self.rules.check(volts)
 
     def set_voltage(self, volts: float) -> None:
-        """Check ``volts`` (V) against every limit, then write it."""
-        requested = self.limits.check(volts)
-        sent = float(self._on_wire(requested))
-        if sent != requested:
-            try:
-                self.limits.check(sent)
-            except LimitError as exc:
-                raise LimitError(
-                    f"heater set-point {requested:g} V becomes {sent:g} V on the wire, "
-                    f"which is refused: {exc}",
-                    check=exc.check,
-                    volts=requested,
-                ) from None
+        """Check ``volts`` (V) against every rule (:meth:`check_setpoint`), then write it."""
+        sent = self.check_setpoint(volts)
         self._writes += 1
         with delay_keyboard_interrupt():
             try:

@@ -46,6 +46,10 @@ class DeviceError(DriverError):
     """The instrument answered with an error of its own (SCPI error reply, device fault)."""
 
 
+class SetpointRefused(DeviceError):
+    """The instrument refused a set-point (beyond its range): a plan with that point cannot run on it."""
+
+
 class SensorError(DriverError):
     """The PSD gave no usable reading (NaN, or saturated at a rail) after the retries."""
 
@@ -61,6 +65,10 @@ class SafeStateError(DriverError):
 
 class CodecError(DriverError, ValueError):
     """A value cannot be represented in a register format (NaN in an integer, overflow)."""
+
+
+class InstrumentBusy(DriverError):
+    """Another run holds the instrument (one run per instrument; see :mod:`drivers.instrument_lock`)."""
 
 
 class ServeError(DriverError, ValueError):

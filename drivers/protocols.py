@@ -114,11 +114,26 @@ class HeaterOutput(Protocol):
         """The set-points this output accepts (V), after every configured limit."""
         ...
 
+    @property
+    def full_scale_V(self) -> float | None:
+        """The instrument's output range (+-V) when it, or the configuration, says; else None."""
+        ...
+
+    def check_setpoint(self, volts: float) -> float:
+        """The value the instrument would receive for ``volts`` (V), after every rule, without writing.
+
+        Raises :class:`drivers.errors.LimitError` naming the rule that
+        refuses it (not finite, range, current -- as asked or as rounded on
+        the wire -- or the instrument's full scale): what a plan is checked
+        with, point by point, before a run starts.
+        """
+        ...
+
     def set_voltage(self, volts: float) -> None:
         """Drive the heater at ``volts`` (V).
 
         Raises :class:`drivers.errors.LimitError` -- and writes nothing --
-        when the value is not finite or outside :attr:`window`.
+        when :meth:`check_setpoint` refuses it.
         """
         ...
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import click
 
-from drivers.errors import CodecError, ConfigError, DriverError, LimitError, ServeError
+from drivers.errors import CodecError, ConfigError, DriverError, InstrumentBusy, LimitError, ServeError
 from identify.errors import IdentifyError
 from rig.acquisition.errors import AcquisitionError
 from sessions.errors import DataFileError, StorageError
@@ -29,6 +29,7 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
     CodecError,
     ServeError,
     AcquisitionError,
+    InstrumentBusy,
 )
 
 #: Exceptions meaning "the rig failed while being driven" (exit 3): the instrument, its link, or the

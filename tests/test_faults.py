@@ -22,7 +22,7 @@ from sessions import SampleFlag, Status, read_session
 
 from .acquirekit import Child, wait_for_samples
 from .conftest import digest
-from .faultkit import FAULT_MAP, SimServer
+from .faultkit import FAULT_MAP, SimServer, rig_exe
 
 #: The register map with the instrument's boot id (the simulated bench serves it at input 2).
 BOOT_MAP = FAULT_MAP + "[modbus.boot_id]\naddress = 2\ntype = 'uint32'\n"
@@ -261,3 +261,32 @@ def test_a_session_removed_during_the_run_stops_it_and_is_written_back(tmp_path,
     assert s.status is Status.FAILED and [e.event for e in s.events].count("failed") == 1
     assert s.n_samples >= 5 and np.array_equal(s.samples["index"], np.arange(s.n_samples))
     assert sorted(p.name for p in tmp_path.iterdir() if p.suffix == ".h5") == ["run.h5"]
+
+
+# ---------------------------------------------------------------- finding 6: one run per instrument
+def test_a_second_run_on_the_same_instrument_is_refused_naming_the_holder(tmp_path, shared_server):
+    server = shared_server
+    cfg = server.client_config(tmp_path / "rig.toml")
+    first, second = tmp_path / "first.h5", tmp_path / "second.h5"
+    n0 = len(server.setpoints())
+    a = Child("--config", cfg, *RUN, "--dwell", 0.5, "--out", first)  # slow enough to outlast the others
+    wait_for_samples(first, 2, child=a)
+    others = [Child("--config", cfg, *RUN, "--out", second),
+              subprocess.Popen([rig_exe(), "selftest", "--config", str(cfg)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)]  # selftest would move the heater mid-run
+    code, out, err = others[0].finish(timeout=60)
+    line = one_line(err)
+    assert code == 2 and "in use by another run" in line and f"pid {a.proc.pid}" in line, err
+    assert f"127.0.0.1:{server.port}" in line and not second.exists()
+    out, err = others[1].communicate(timeout=60)
+    assert others[1].returncode == 2 and "in use by another run" in err, (out, err)
+    assert a.proc.poll() is None, "the first run ended before the others were refused: nothing was tested"
+    a.proc.send_signal(signal.SIGTERM)
+    code, out, err = a.finish(timeout=60)
+    assert code == 130, err
+    # the heater saw the first run and nothing else: its opening 0 V, saturation, its points, the safe state
+    s = read_session(first)
+    seen = [e["volts"] for e in server.setpoints()[n0:]]
+    planned = [float(np.float32(v)) for v in s.excitation.inputs]
+    assert seen[:2] == [0.0, 0.0] and seen[-1] == 0.0 and seen[2:-1] == planned[: len(seen) - 3]
+    assert len(seen) - 3 >= s.n_samples >= 2

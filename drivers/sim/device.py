@@ -41,7 +41,7 @@ from identify.memory import CellStates
 
 from ..clock import VirtualClock
 from ..configschema import as_dict
-from ..errors import DeviceError
+from ..errors import SetpointRefused
 from ..protocols import Clock
 from .effects import Effect, Moment, make_effects
 from .faults import FaultPlan
@@ -49,7 +49,7 @@ from .params import SimParams
 from .transition import transition_density
 
 
-class DeviceRefused(DeviceError):
+class DeviceRefused(SetpointRefused):
     """The simulated hardware refuses a set-point (not finite, or beyond its full scale)."""
 
 

@@ -11,7 +11,8 @@ Built on pymodbus 3.16's ``SimDevice``/``SimData`` datastore, whose
   the PSD register triggers one PSD reading (a NaN that the register type
   cannot hold is answered with exception 4, device failure); the boot-id
   register (when the map has one) holds the device's
-  :attr:`~drivers.sim.SimVO2.boot_id`, new at every power-up;
+  :attr:`~drivers.sim.SimVO2.boot_id`, new at every power-up, and the
+  full-scale register its ``max_output_V``;
 * every other address is invalid (exception 2); another unit id gets
   exception 11, as from a gateway.
 
@@ -118,6 +119,9 @@ class SimModbusHandler:
         boot = self.cfg.boot_id
         if boot is not None and self._touches(boot, func_code, address, count):
             registers[boot.address - start : boot.address - start + boot.count] = boot_words(boot, self.device.boot_id)
+        fs = self.cfg.full_scale
+        if fs is not None and self._touches(fs, func_code, address, count):
+            registers[fs.address - start : fs.address - start + fs.count] = fs.encode(self.device.params.max_output_V)
         return None
 
     def _write_setpoint(self, words: list[int]) -> ExcCodes | None:

@@ -113,7 +113,7 @@ def acquire(
     Raises before creating the session when the plan does not fit the heater.
     """
     plan = AcquisitionPlan.from_record(record)
-    plan.check_window(rig.heater.window)
+    plan.check_window(rig.heater.window, rig.heater.check_setpoint)  # as the wire carries them, full scale too
     settings = settings if settings is not None else DwellSettings.from_description(record.dwell)
     plan.check_settings(settings)
     hooks = hooks or Hooks()
@@ -155,7 +155,7 @@ def resume(
     """Continue the interrupted session ``path`` on ``rig``: saturate, replay, go on (see the module doc)."""
     session = resumable(path)
     plan = AcquisitionPlan.from_record(session.excitation)
-    plan.check_window(rig.heater.window)
+    plan.check_window(rig.heater.window, rig.heater.check_setpoint)  # as the wire carries them, full scale too
     settings = DwellSettings.from_description(session.excitation.dwell)
     plan.check_settings(settings)
     hooks = hooks or Hooks()

@@ -8,8 +8,9 @@ from pathlib import Path
 import click
 from click.core import ParameterSource
 
+from drivers.backends import setpoint_rules
 from drivers.config import RigConfig, default_config, load_config, parse_config
-from drivers.errors import ConfigError, DriverError, SafeStateError
+from drivers.errors import CodecError, ConfigError, DriverError, LimitError, SafeStateError, SetpointRefused
 from drivers.protocols import SafeState
 from drivers.rig import open_rig
 from rig.acquisition import (
@@ -142,7 +143,8 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         if out.exists() or out.is_symlink():
             raise DataFileError(f"{out}: already exists; a session is never overwritten")
         cfg = load_config(config_path) if config_path else default_config()
-        window = cfg.heater.limits().window
+        rules = setpoint_rules(cfg)
+        window = rules.window
         schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points, seed=seed)
         settings = _settings(dwell, settle, poll, transit, readings, schedule)
         record = make_record(
@@ -150,7 +152,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
                             seed=seed, thermal_term=thermal_term),
             settings, measure, seed,
         )
-        AcquisitionPlan.from_record(record).check_window(window)  # before the rig is touched
+        AcquisitionPlan.from_record(record).check_window(window, rules.check)  # before the rig is touched
         target, total, start = out, record.n_points, 0
 
     bar = ProgressBar(total, start, enabled=sys.stderr.isatty() if progress is None else progress)
@@ -193,6 +195,9 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
 
 
 def _resume_advice(target: Path, heater: SafeState, fault: BaseException | None = None) -> str:
+    if isinstance(fault, (SetpointRefused, LimitError, CodecError)):
+        return ("the plan cannot be completed on this rig as configured (--resume would fail the same way): "
+                "fix [heater] in rig.toml (max_V, max_current_mA, full_scale_V) or the plan, and start a new run")
     if not heater.confirmed:
         return f"once the bench is safe and the instrument answers, continue with: rig acquire --resume {target}"
     if isinstance(fault, StorageError):
