@@ -46,6 +46,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from .checksums import create_checked
 from .errors import DataFileError, StorageError
 from .guard import deferred_interrupt
 from .lock import WriterLock
@@ -106,10 +107,10 @@ def write_layout(
         g.attrs["seed"] = int(excitation.seed)
     g.attrs["dwell"] = _json(excitation.dwell)
     g.attrs["extra"] = _json(excitation.extra)
-    g.create_dataset("inputs", data=excitation.inputs)
-    g.create_dataset("measure", data=excitation.measure)
+    create_checked(g, "inputs", excitation.inputs)
+    create_checked(g, "measure", excitation.measure)
     if excitation.curves is not None:
-        g.create_dataset("curve", data=excitation.curves.astype(np.int32))
+        create_checked(g, "curve", excitation.curves.astype(np.int32))
     if calibration is not None:
         write_calibration(f, calibration)
     f.create_dataset(
