@@ -27,7 +27,7 @@ from .faultkit import FAULT_MAP, SimServer, rig_exe
 #: The register map with the instrument's boot id (the simulated bench serves it at input 2).
 BOOT_MAP = FAULT_MAP + "[modbus.boot_id]\naddress = 2\ntype = 'uint32'\n"
 
-pytestmark = pytest.mark.timeout(120)
+pytestmark = [pytest.mark.timeout(120), pytest.mark.slow]
 
 #: L = 8 on [1, 6] V (no point of the plan is 0 V, so a 0 V in the journal can only be the safe state);
 #: 0.1 s dwells on the fast device; one reading per measurement.
@@ -91,7 +91,6 @@ BURSTS = {
 }
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
 @pytest.mark.parametrize("burst", list(BURSTS))
 def test_a_burst_of_signals_ends_aborted_with_exit_130_and_the_heater_at_0V(tmp_path, shared_server, sig, burst):

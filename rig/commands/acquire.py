@@ -180,7 +180,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         if target.exists() and rig is not None:
             s = read_session(target)
             kept = f"; session {target} is {s.status.value} with {s.n_samples} of {s.excitation.n_points} points kept"
-        click.echo(f"aborted ({exc or 'interrupted'}): {said}{kept}", err=True)
+        click.echo(f"aborted ({str(exc) or 'interrupted'}): {said}{kept}", err=True)
         raise click.exceptions.Exit(EXIT_ABORTED) from None
     bar.close()
     _report(summarise(read_session(target), outcome), as_json)
