@@ -151,6 +151,7 @@ def test_an_instrument_restarted_in_a_fresh_state_stops_the_run_and_resume_compl
         np.testing.assert_array_equal(done.inputs, reference.inputs)
         np.testing.assert_array_equal(done.outputs, reference.outputs)
         assert done.status is Status.COMPLETE and not np.any(done.samples["flags"] & SampleFlag.RECONNECTED)
+        assert server.accepted_volts()[-1] == 0.0
 
 
 def test_an_instrument_that_hangs_and_comes_back_is_checked_its_setpoint_resent_and_the_points_flagged(
@@ -172,10 +173,10 @@ def test_an_instrument_that_hangs_and_comes_back_is_checked_its_setpoint_resent_
         # the instrument held its output and the beam its state: every sample is right, the flagged ones too
         np.testing.assert_array_equal(s.outputs, reference.outputs)
         assert s.status is Status.COMPLETE and [e.event for e in s.events].count("reconnected") == flagged.size
-        # the set-point of the flagged point was sent again after the reconnection
+        # the set-point of the flagged point was sent again after the reconnection; the run ended at 0 V
         volts = server.accepted_volts()
         v = s.inputs[flagged[0]]
-        assert any(a == b == np.float32(v) for a, b in zip(volts, volts[1:]))
+        assert any(a == b == np.float32(v) for a, b in zip(volts, volts[1:])) and volts[-1] == 0.0
 
 
 # ---------------------------------------------------------------- finding 4: storage faults
