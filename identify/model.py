@@ -1,4 +1,4 @@
-"""The discretised Preisach model with bias and thermal term, equation (22).
+"""The discretised Preisach model with bias and thermal term, equation (22), and its effects.
 
 ``u(n) = mu0 + c_d v(n) + sum_ij mu_ij s_ij(n)``
 
@@ -6,6 +6,11 @@ with ``u`` the deflection (um), ``v`` the heater voltage (V), ``mu_ij`` the
 weight of cell ``(i, j)`` (um; the paper's density value of the cell, i.e.
 density times cell area, since ``s_ij`` is normalised to [-1, 1]), ``mu0``
 the bias (um) and ``c_d`` the linear thermal coefficient (um/V).
+
+A model may carry fitted effects (:mod:`identify.effects`): terms beside
+equation (22) that act on a whole recorded run (its inputs, time stamps,
+dwells) -- :meth:`PreisachModel.predict_run`.  Without effects a model is
+exactly equation (22) and reads and writes exactly as before.
 """
 
 from __future__ import annotations
@@ -42,6 +47,8 @@ class PreisachModel:
     input_unit: str = "V"
     output_unit: str = "um"
     metadata: dict[str, Any] = field(default_factory=dict, compare=False)
+    #: Fitted effects (:class:`identify.effects.Effect`), in the order they act; () for equation (22) alone.
+    effects: tuple = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         d = np.array(self.density, dtype=float)
@@ -58,6 +65,10 @@ class PreisachModel:
             object.__setattr__(self, name, val)
         d.flags.writeable = False
         object.__setattr__(self, "density", d)
+        effects = tuple(self.effects)
+        if any(not getattr(e, "fitted", False) for e in effects):
+            raise IdentifyError("a model's effects must be fitted")
+        object.__setattr__(self, "effects", effects)
 
     # ------------------------------------------------------------ parameters
     def parameters(self, thermal_term: bool = True) -> np.ndarray:
@@ -97,9 +108,27 @@ class PreisachModel:
         ``history`` (not returned); inputs beyond the grid range saturate.
         Uses the Everett function of the density (:mod:`identify.forward`):
         ``O(n + L^2)`` time and memory.  For one input at a time (inverse
-        compensation) use :meth:`state`.
+        compensation) use :meth:`state`.  The model's effects are left out:
+        they act on a whole run (:meth:`predict_run`).
         """
         return forward.predict(self, inputs, initial, history)
+
+    def predict_run(self, run: Any) -> np.ndarray:
+        """The reading (um) at every point of ``run`` (an :class:`identify.runs.Run`), ``(n,)``, with
+        the model's effects, from negative saturation.
+
+        Raises :class:`identify.effects.EffectNotApplicable` when the run
+        lacks what an effect needs (time stamps for ``creep``, ...).
+        """
+        from .effects.compose import predict_run
+
+        return predict_run(self, run)
+
+    def without_effects(self) -> "PreisachModel":
+        """This model's equation (22) part."""
+        from dataclasses import replace
+
+        return replace(self, effects=()) if self.effects else self
 
     def state(self, initial: InitialState = "negative", history: np.ndarray | None = None) -> "forward.HysteresisState":
         """The model with its memory, to be stepped one input at a time."""
@@ -120,6 +149,7 @@ class PreisachModel:
             "input_unit": self.input_unit,
             "output_unit": self.output_unit,
             **({"metadata": self.metadata} if self.metadata else {}),
+            **({"effects": [effect_dict(e) for e in self.effects]} if self.effects else {}),
         }
 
     @classmethod
@@ -155,6 +185,13 @@ class PreisachModel:
             )
         if not np.all(np.isfinite(density)):
             raise IdentifyError("model 'density' has non-finite values")
+        effects = data.get("effects", [])
+        if not isinstance(effects, list):
+            raise IdentifyError("model 'effects' must be a list of {\"name\", \"params\"} objects")
+        if effects:
+            from .effects import effect_from_dict, pipeline_order
+
+            effects = pipeline_order(effect_from_dict(e) for e in effects)
         return cls(
             grid,
             grid.density_vector(density),
@@ -163,4 +200,12 @@ class PreisachModel:
             input_unit=str(data.get("input_unit", "V")),
             output_unit=str(data.get("output_unit", "um")),
             metadata=dict(data.get("metadata", {})),
+            effects=tuple(effects),
         )
+
+
+def effect_dict(effect: Any) -> dict[str, Any]:
+    """An effect's stored form, ``{"name", "params"}``."""
+    from .effects import effect_to_dict
+
+    return effect_to_dict(effect)

@@ -3,7 +3,7 @@ the gap shrinks once that effect is added.
 
 Pure numerics, one module per job:
 
-* :mod:`~identify.diagnosis.runs` -- a recorded run and what its input history implies;
+* :mod:`identify.runs` -- a recorded run and what its input history implies (shared with the effects);
 * :mod:`~identify.diagnosis.design` -- the check-run input design;
 * :mod:`~identify.diagnosis.base` -- the base model on the identification runs, linearised;
 * :mod:`~identify.diagnosis.candidates` -- the candidate augmentations (one per effect);
@@ -17,7 +17,7 @@ Pure numerics, one module per job:
 from .candidates import CANDIDATES, Candidate, library
 from .design import CheckDesign, check_design
 from .engine import CandidateScore, Diagnosis, DiagnosisSettings, diagnose
-from .runs import Run
+from ..runs import Run
 from .verdict import STATUSES, Verdict
 
 __all__ = [

@@ -35,7 +35,7 @@ from ..grid import Grid
 from ..methods import Problem, make_method
 from ..model import PreisachModel
 from ..regressor import regressor_matrix
-from .runs import Run
+from ..runs import Run
 
 #: Singular values below this fraction of the largest are dropped from ``pinv(X_F)``.
 PINV_RCOND = 1e-10

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .runs import AFTER_REVERSAL, BRANCH_NAMES, COOLING, HEATING
+from ..runs import AFTER_REVERSAL, BRANCH_NAMES, COOLING, HEATING
 
 #: The binned quantities and their units, in report order.
 BY = {

@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .base import BaseFit
-from .runs import Run
+from ..runs import Run
 
 #: Fewest differences an estimate may rest on.
 MIN_PAIRS = 8

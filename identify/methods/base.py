@@ -4,8 +4,9 @@ The constructor holds settings only; :meth:`Method.fit` takes a
 :class:`~identify.methods.problem.Problem`, learns, and sets the fitted
 attributes (ending in ``_``):
 
-``parameters_`` ``(P,)`` the vector ``w``; ``model_`` the
-:class:`~identify.model.PreisachModel`; ``seconds_`` wall time of the fit;
+``parameters_`` ``(P,)`` the vector ``w`` (with extra columns, in the
+order of :class:`~identify.operators.AugmentedOperator`); ``model_`` the
+:class:`~identify.model.PreisachModel` of its equation (22) part; ``seconds_`` wall time of the fit;
 ``info_`` solver diagnostics (status, iterations, ...).
 
 Every method has the setting ``solver``: ``"fast"`` (the default) uses the
@@ -54,7 +55,7 @@ class Method(ABC):
 
     def fit(self, problem: Problem) -> "Method":
         """Identify a model from ``problem``; returns ``self``."""
-        if problem.n_measured > problem.n:
+        if problem.n_measured > problem.n_rows:
             raise IdentifyError(
                 f"M={problem.n_measured} measurements exceed the N={problem.n} applied inputs"
             )
@@ -76,7 +77,8 @@ class Method(ABC):
             raise IdentifyError(f"{self.name} produced non-finite parameters")
         self.parameters_ = w
         self.info_ = info
-        self.model_ = PreisachModel.from_parameters(problem.grid, w, problem.thermal_term)
+        base, _ = problem.split(w)
+        self.model_ = PreisachModel.from_parameters(problem.grid, base, problem.thermal_term)
         return self
 
     @abstractmethod

@@ -76,7 +76,10 @@ def _fit_diagonal(problem: Problem, mu: np.ndarray) -> tuple[np.ndarray, dict[st
     """``w`` with the off-diagonal cells ``mu`` and the diagonal cells, ``mu0`` (and ``c_d``) fitted.
 
     Least squares on the measured rows of ``y - S_off mu`` against the
-    diagonal cells' columns (>= 0) and the free columns.
+    diagonal cells' columns (>= 0) and the free columns -- with extra
+    columns (effect terms, :mod:`identify.effects`) those too, so
+    ``everett`` fits effects jointly with the diagonal of the density
+    (the off-diagonal cells come from the curves' second differences).
     """
     grid = problem.grid
     n, P = grid.n_cells, problem.n_parameters
@@ -89,7 +92,7 @@ def _fit_diagonal(problem: Problem, mu: np.ndarray) -> tuple[np.ndarray, dict[st
     pick[diag, np.arange(diag.size)] = 1.0
     pick[n:, diag.size:] = np.eye(P - n)
     columns = np.asarray(problem.operator.matmat(pick))[rows]
-    fitted, info = nnls_free(columns, problem.measured - fixed, diag.size)
+    fitted, info = nnls_free(columns, problem.measured - fixed, diag.size + problem.extra_nonneg)
     w[diag] = fitted[: diag.size]
     w[n:] = fitted[diag.size:]
     return w, {"diagonal_residual_norm": info["residual_norm"]}

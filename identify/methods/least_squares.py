@@ -24,5 +24,5 @@ class LeastSquares(Method):
     def _solve(self, problem: Problem):
         problem.require_thermal_identifiable(self.name)
         if self.dense:
-            return nnls_free(problem.measured_regressor, problem.measured, problem.n_cells)
-        return nnls_operator(problem.operator, problem.rows, problem.measured, problem.n_cells)
+            return nnls_free(problem.measured_regressor, problem.measured, problem.n_nonneg)
+        return nnls_operator(problem.operator, problem.rows, problem.measured, problem.n_nonneg)

@@ -27,7 +27,7 @@ from ..excitation import damped_oscillation
 from ..grid import Grid
 from ..memory import InitialState
 from .. import design_cache
-from ..operators import RegressorOperator
+from ..operators import AugmentedOperator, RegressorOperator, RowScaledOperator
 from ..regressor import check_inputs, n_parameters, regressor_matrix
 from ..square import SquareSolver
 
@@ -66,6 +66,19 @@ class Problem:
     curves: ``(n,)`` the curve each applied row belongs to (-1: none), for
         inputs made of first-order reversal curves (needed by ``everett``),
         else ``None``.
+    extra: ``(n, k)`` extra columns fitted jointly with the density (the
+        terms of unmodelled effects, :mod:`identify.effects`; output units
+        per unit coefficient), or ``None``; the first ``extra_nonneg`` of
+        their coefficients are >= 0, the others free.  With extra columns
+        ``operator`` is an :class:`~identify.operators.AugmentedOperator`
+        and the parameter vector is ``(cells, extra >= 0, mu0[, c_d], extra free)``.
+    row_scale: ``(n,)`` or ``None``: every row of the design (regressor and
+        extra columns) multiplied by it -- the joint fit's Gauss--Newton step
+        through a sensor map (:mod:`identify.effects.joint`).
+    penalty: ``(r, k)`` or ``None``: rows acting on the extra columns'
+        coefficients alone, appended to the design and fitted to zero (a
+        roughness penalty); they are rows ``n .. n + r - 1`` of ``operator``
+        and are among ``rows`` (with ``measured`` 0), so ``n_rows = n + r``.
 
     ``regressor`` (dense ``S``, ``(n, P)``) and ``operator`` (the same as a
     matrix-free :class:`~identify.operators.RegressorOperator`) are built on
@@ -82,6 +95,10 @@ class Problem:
     history: np.ndarray | None = None
     dense: np.ndarray | None = field(default=None, repr=False)
     curves: np.ndarray | None = None
+    extra: np.ndarray | None = field(default=None, repr=False)
+    extra_nonneg: int = 0
+    row_scale: np.ndarray | None = field(default=None, repr=False)
+    penalty: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
     def build(
@@ -95,6 +112,10 @@ class Problem:
         history: np.ndarray | None = None,
         regressor: np.ndarray | None = None,
         curves: np.ndarray | None = None,
+        extra: np.ndarray | None = None,
+        extra_nonneg: int = 0,
+        row_scale: np.ndarray | None = None,
+        penalty: np.ndarray | None = None,
     ) -> "Problem":
         """A problem from the applied inputs (V) and the outputs (um) of every row.
 
@@ -104,6 +125,8 @@ class Problem:
         'CS Order').  ``regressor`` (the dense ``S``) may be passed when
         already computed; otherwise nothing is built until a method asks.
         ``curves`` ``(n,)`` numbers the curve of every applied row (-1: none).
+        ``extra`` ``(n, k)`` are extra columns fitted jointly (see the class
+        doc), the first ``extra_nonneg`` of them with coefficients >= 0.
         """
         v = check_inputs(inputs)
         y = np.asarray(outputs, dtype=float)
@@ -134,8 +157,31 @@ class Problem:
             if curves.shape != v.shape or (curves.size and not np.issubdtype(curves.dtype, np.integer)):
                 raise IdentifyError(f"curve index must be {v.size} whole numbers, one per input")
             curves = curves.astype(np.int64)
+        if extra is not None:
+            extra = np.asarray(extra, dtype=float)
+            if extra.ndim != 2 or extra.shape[0] != v.size or not np.all(np.isfinite(extra)):
+                raise IdentifyError(f"extra columns must be a finite ({v.size}, k) array")
+            if not 0 <= extra_nonneg <= extra.shape[1]:
+                raise IdentifyError(f"extra_nonneg={extra_nonneg} outside 0..{extra.shape[1]}")
+            if regressor is not None:
+                raise IdentifyError("a dense regressor cannot be combined with extra columns")
+        if row_scale is not None:
+            row_scale = np.asarray(row_scale, dtype=float)
+            if row_scale.shape != v.shape or not np.all(np.isfinite(row_scale)):
+                raise IdentifyError(f"row scale must be {v.size} finite numbers")
+            if regressor is not None:
+                raise IdentifyError("a dense regressor cannot be combined with a row scale")
         order = np.argsort(y, kind="stable") if np.all(known) else None
-        return cls(grid, v, thermal_term, rows, y[rows].copy(), order, initial, history, regressor, curves)
+        measured = y[rows].copy()
+        if penalty is not None:
+            penalty = np.asarray(penalty, dtype=float)
+            if extra is None or penalty.ndim != 2 or penalty.shape[1] != extra.shape[1]:
+                raise IdentifyError("penalty rows need extra columns of the same width")
+            rows = np.concatenate([rows, v.size + np.arange(penalty.shape[0])])
+            measured = np.concatenate([measured, np.zeros(penalty.shape[0])])
+            order = None
+        return cls(grid, v, thermal_term, rows, measured, order, initial, history, regressor, curves,
+                   extra, int(extra_nonneg) if extra is not None else 0, row_scale, penalty)
 
     # ---------------------------------------------------------- dimensions
     @property
@@ -148,8 +194,31 @@ class Problem:
         return self.rows.size
 
     @property
+    def n_rows(self) -> int:
+        """Rows of ``operator``: the applied inputs, then the penalty rows (if any)."""
+        return self.n + (0 if self.penalty is None else int(self.penalty.shape[0]))
+
+    @property
     def n_parameters(self) -> int:
-        return n_parameters(self.grid, self.thermal_term)
+        return n_parameters(self.grid, self.thermal_term) + self.n_extra
+
+    @property
+    def n_extra(self) -> int:
+        """Number of extra columns (effect terms), 0 without."""
+        return 0 if self.extra is None else int(self.extra.shape[1])
+
+    @property
+    def n_nonneg(self) -> int:
+        """How many leading parameters are >= 0: the cells, then the sign-constrained extras."""
+        return self.grid.n_cells + self.extra_nonneg
+
+    def split(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``w`` as (the model's parameters ``(cells, mu0[, c_d])``, the extra columns' coefficients ``(k,)``)."""
+        w = np.asarray(w, dtype=float)
+        if self.extra is None:
+            return w, np.zeros(0)
+        op = self.operator
+        return w[op.base_index], w[op.extra_index]
 
     @property
     def n_cells(self) -> int:
@@ -157,7 +226,7 @@ class Problem:
 
     # ---------------------------------------------------------- the regressor
     @cached_property
-    def operator(self) -> RegressorOperator:
+    def operator(self) -> RegressorOperator | AugmentedOperator:
         """``S`` as a matrix-free operator (``matvec`` = ``S w``, ``rmatvec`` = ``S^T r``).
 
         ``O(n + L^2)`` per product and in memory (:mod:`identify.operators`);
@@ -166,9 +235,14 @@ class Problem:
         design (grid, inputs, thermal term, initial memory) share one
         operator (:mod:`identify.design_cache`).
         """
-        return design_cache.regressor_operator(
+        base = design_cache.regressor_operator(
             self.grid, self.inputs, self.thermal_term, self.initial, self.history
         )
+        op = base if self.extra is None else AugmentedOperator(base, self.extra, self.extra_nonneg, self.penalty)
+        if self.row_scale is None:
+            return op
+        scale = np.concatenate([self.row_scale, np.ones(self.n_rows - self.n)])
+        return RowScaledOperator(op, scale)
 
     @property
     def measured_operator(self) -> LinearOperator:
@@ -180,6 +254,8 @@ class Problem:
         """The dense ``S``, shape ``(n, P)``: built on first use (dense paths only)."""
         if self.dense is not None:
             return self.dense
+        if self.extra is not None or self.row_scale is not None:
+            return self.operator.dense_rows()
         return regressor_matrix(self.grid, self.inputs, self.thermal_term, self.initial, self.history)
 
     @property
@@ -201,6 +277,12 @@ class Problem:
         """
         L = self.grid.levels
         P = self.n_parameters
+        if self.extra is not None:
+            raise MethodNotApplicable(
+                f"cannot fit effects jointly: it needs the square damped-oscillation design, which has exactly "
+                f"as many inputs as equation (22) has parameters and no room for the {self.n_extra} effect "
+                "term(s); use ls or smooth_nn"
+            )
         design = "damped oscillation" + (" plus the thermal point" if self.thermal_term else "")
         if self.curves is not None and np.any(self.curves >= 0):
             raise MethodNotApplicable(
@@ -277,7 +359,7 @@ class Problem:
         measured input sits on a wall ``c_d`` cannot be told apart from a
         uniform shift of the diagonal cells.
         """
-        if self.thermal_term and np.all(self.grid.on_walls(self.inputs[self.rows])):
+        if self.thermal_term and np.all(self.grid.on_walls(self.inputs[self.rows[self.rows < self.n]])):
             raise MethodNotApplicable(
                 f"{method} cannot identify the thermal term: every measured input sits on a "
                 "wall, where v is an affine function of the diagonal cells; measure an off-wall "

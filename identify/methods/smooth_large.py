@@ -38,7 +38,7 @@ class _Objective:
 
     def __init__(self, problem: Problem, rows: np.ndarray, y: np.ndarray, col_scale: np.ndarray):
         self.op = problem.operator
-        self.n = problem.n
+        self.n = problem.n_rows
         self.n_cells = problem.n_cells
         self.rows = rows
         self.y = y
@@ -73,17 +73,17 @@ def solve_iterative(problem: Problem, weight: float | None) -> tuple[np.ndarray,
     scale = float(np.max(np.abs(y_raw))) or 1.0
     y = y_raw / scale
     rows = problem.rows
-    n, p = problem.n_cells, problem.n_parameters
+    n, p = problem.n_nonneg, problem.n_parameters
     op = problem.operator
-    # free columns (ones, v) are rescaled to the size of a cell column
+    # the columns that are not cells (ones, v, effect terms) are rescaled to the size of a cell column
     col_scale = np.ones(p)
-    for k in range(n, p):
+    for k in range(problem.n_cells, p):
         e = np.zeros(p)
         e[k] = 1.0
         norm = float(np.linalg.norm(np.asarray(op.matvec(e)).ravel()[rows]))
         col_scale[k] = np.sqrt(rows.size) / norm if norm > 0 else 1.0
     bounds = [(0.0, None)] * n + [(None, None)] * (p - n)
-    full = np.zeros(problem.n)
+    full = np.zeros(problem.n_rows)
     full[rows] = y
     gtol = 1e-9 * max(1.0, float(np.abs(np.asarray(op.rmatvec(full))).max()))
     data_scale = cell_column_scale(problem)

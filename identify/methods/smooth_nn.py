@@ -148,12 +148,12 @@ def solve_dense(problem: Problem, weight: float | None) -> tuple[np.ndarray, dic
     y = y_raw / scale
     ne = NormalEquations(x.T @ x, x.T @ y, float(y @ y), y, scale, x)
     lam, info = _weight(ne, problem, weight)
-    n = problem.n_cells
+    n = problem.n_nonneg
     d = difference_matrix(problem.grid)
-    mu = cp.Variable(n)          # cell weights
-    free = cp.Variable(problem.n_parameters - n)   # mu0 and c_d
+    mu = cp.Variable(n)          # cell weights (and sign-constrained extra terms)
+    free = cp.Variable(problem.n_parameters - n)   # mu0, c_d and free extra terms
     fit = cp.sum_squares(x[:, :n] @ mu + x[:, n:] @ free - y)
-    roughness = cp.sum_squares(d @ mu)
+    roughness = cp.sum_squares(d @ mu[: problem.n_cells])
     task = cp.Problem(cp.Minimize(fit + lam * roughness), [mu >= 0])
     solve_clarabel(task, "the smooth_nn reference QP")
     w = np.concatenate([np.maximum(mu.value, 0.0), free.value]) * scale
@@ -162,11 +162,11 @@ def solve_dense(problem: Problem, weight: float | None) -> tuple[np.ndarray, dic
 
 def solve_normal(problem: Problem, weight: float | None) -> tuple[np.ndarray, dict[str, Any]]:
     """The ``"normal"`` algorithm: returns ``w`` (cells, mu0[, c_d]) and diagnostics."""
-    n = problem.n_cells
+    n = problem.n_nonneg
     ne = normal_equations(problem)
     lam, info = _weight(ne, problem, weight)
     h, g = ne.hessian, ne.gradient
-    r = dense_roughness_matrix(problem.grid)
+    r = _padded(dense_roughness_matrix(problem.grid), n)
     # eliminate the free parameters: f = H_ff^+ (g_f - H_fc mu)
     h_ff_pinv = np.linalg.pinv(h[n:, n:], hermitian=True)
     coupling = h_ff_pinv @ h[n:, :n]
@@ -180,6 +180,15 @@ def solve_normal(problem: Problem, weight: float | None) -> tuple[np.ndarray, di
     return w * ne.scale, {"solver": "fast", "algorithm": "normal", "weight": lam, **info, **qp.info()}
 
 
+def _padded(r: np.ndarray, n: int) -> np.ndarray:
+    """The cells' roughness matrix ``r`` with zero rows and columns for the sign-constrained extra terms, ``(n, n)``."""
+    if r.shape[0] == n:
+        return r
+    out = np.zeros((n, n))
+    out[: r.shape[0], : r.shape[0]] = r
+    return out
+
+
 def _refine(problem, ne, r, lam, w, qp, h_ff_pinv, coupling) -> np.ndarray:
     """Iterative refinement on the cells the QP left free (and mu0, c_d).
 
@@ -189,12 +198,12 @@ def _refine(problem, ne, r, lam, w, qp, h_ff_pinv, coupling) -> np.ndarray:
     reuses the QP's last factorisation (free parameters eliminated as in
     the QP).
     """
-    n = problem.n_cells
+    n = problem.n_nonneg
     free = np.flatnonzero(qp.free)
     op, rows = problem.operator, problem.rows
     h_cf = ne.hessian[:n, n:]
     for _ in range(REFINEMENT_STEPS):
-        resid = np.zeros(problem.n)
+        resid = np.zeros(problem.n_rows)
         resid[rows] = ne.y - np.asarray(op.matvec(w)).ravel()[rows]
         grad = np.asarray(op.rmatvec(resid)).ravel()
         grad[:n] -= lam * (r @ w[:n])

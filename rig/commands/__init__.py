@@ -13,6 +13,7 @@ from .selftest import selftest
 from .serve_sim import serve_sim
 from .study import study
 from .validate import validate
+from .watch import watch
 
 COMMANDS = [demo, identify, predict, import_, export, selftest, serve_sim, acquire, validate, report, study, bench,
-            diagnose]
+            diagnose, watch]

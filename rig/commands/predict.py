@@ -7,12 +7,14 @@ from pathlib import Path
 
 import click
 
+import numpy as np
+
 from identify import PreisachModel
 from identify.metrics import max_abs, rmse
-from sessions import read_trace
 
 from ..errors import UserError
 from ..output import format_table, print_json
+from ..session_input import open_run, run_of
 
 
 def load_model(path: Path) -> PreisachModel:
@@ -36,18 +38,24 @@ def load_model(path: Path) -> PreisachModel:
 @click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def predict(model_file, file, as_json):
-    """Predict the deflection of FILE (CSV trace) with the model in MODEL_FILE.
+    """Predict the deflection of FILE (a CSV trace, or a session) with the model in MODEL_FILE.
 
     The memory starts in negative saturation; RMSE and maximum error are
-    against the trace's deflection_um column.
+    against the run's measured deflection. A model with effects acts on
+    the whole run (its time stamps, and a session's dwells); an effect that
+    needs what the run does not record is refused.
     """
     model = load_model(model_file)
-    trace = read_trace(file)
-    prediction = model.predict(trace.v_V)
-    err = prediction - trace.deflection_um
+    data = open_run(file, allow_partial=True)
+    if model.effects:
+        prediction = model.predict_run(run_of(data))
+    else:
+        prediction = model.predict(data.inputs)
+    measured = np.isfinite(data.outputs)
+    err = prediction[measured] - data.outputs[measured]
     result = {"prediction_um": prediction, "rmse_um": rmse(err), "max_abs_um": max_abs(err)}
     if as_json:
         print_json(result)
         return
-    click.echo(f"{file}: {len(trace)} points predicted with {model_file}")
+    click.echo(f"{file}: {prediction.size} points predicted with {model_file}")
     click.echo(format_table(["rmse_um", "max_abs_um"], [[result["rmse_um"], result["max_abs_um"]]]))

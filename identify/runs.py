@@ -1,4 +1,4 @@
-"""A recorded run as the diagnosis sees it, and what it derives from its input history.
+"""A recorded run as the effects and the diagnosis see it, and what it derives from its input history.
 
 A :class:`Run` holds every applied point of one acquisition run -- the
 memory state of each point depends on all before it -- with its time
@@ -16,10 +16,10 @@ from functools import cached_property
 
 import numpy as np
 
-from ..acquisition_plan import reversal_points
-from ..branch import COOLING, HEATING, branches
-from ..errors import IdentifyError
-from ..regressor import check_inputs
+from .acquisition_plan import reversal_points
+from .branch import COOLING, HEATING, branches
+from .errors import IdentifyError
+from .regressor import check_inputs
 
 #: Branch code of the first point after a reversal (:attr:`History.branch`; heating and cooling as
 #: :mod:`identify.branch`).

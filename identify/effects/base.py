@@ -1,0 +1,303 @@
+"""The shape every effect shares: where it acts, what it needs, its terms and its fitted parameters.
+
+Equation (22) is the hysteresis; an *effect* is a physical mechanism beside
+it.  Each effect acts at one stage of the model's pipeline -- the simulated
+device's (:mod:`drivers.sim.effects`), seen from what a run records::
+
+    heater voltage v --[input]--> hysterons' input x --memory curve--> signed areas s
+      u = mu0 + c_d v + sum mu_ij s_ij(x) --[output]--> u + sum of contributions
+        --[sensor]--> the reading y
+
+* **input** effects change what the memory curve sees (``thermal_lag``,
+  ``ambient_drift``, ``interaction``).  Their parameters enter through the
+  hysteresis, so they are fitted by Gauss--Newton steps on secant
+  *columns*: the change of the current model's output per unit of each
+  parameter.  The thermal term follows the heater unless the effect says
+  otherwise (:attr:`Effect.drives_thermal_term`).
+* **output** effects add a contribution ``B beta`` (``reversible``,
+  ``joule_power``, ``creep``, ``first_point``, ``baseline_drift``): columns
+  ``B`` from what the run records, coefficients ``beta`` linear.
+* **sensor** effects map the deflection to the reading (``sensor_nonlinearity``):
+  ``y = u + phi(u) beta``, linear in ``beta`` at a given ``u``.
+
+An effect may have a few nonlinear *settings* (a time constant, a sign) on
+a small grid (:meth:`Effect.settings_grid`); its coefficients then enter
+linearly.  The same columns serve the joint fit of a model with effects
+(:mod:`identify.effects.joint`) and the gap diagnosis
+(:mod:`identify.diagnosis`), which linearises around the base model.
+
+An effect instance is either *unfitted* (``params is None``: it changes
+nothing) or *fitted*: its ``params`` (JSON-safe, physical units) are what a
+stored model keeps, and they alone determine how it acts on a run.
+Per-run effects (drifts: :attr:`Effect.per_run`) describe only the runs
+they were fitted on, by name; on another run they are unknown and
+contribute nothing (a validation may re-estimate them, held out).
+"""
+
+from __future__ import annotations
+
+from abc import ABC
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, ClassVar
+
+import numpy as np
+
+from ..errors import IdentifyError
+from ..grid import Grid
+from ..runs import Run
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..model import PreisachModel
+
+INPUT, OUTPUT, SENSOR = "input", "output", "sensor"
+STAGES = (INPUT, OUTPUT, SENSOR)
+
+
+class EffectNotIdentifiable(IdentifyError):
+    """The runs cannot identify an effect's parameters (the reason says why and what would)."""
+
+
+class EffectNotApplicable(IdentifyError):
+    """A run lacks what an effect needs to act on it (time stamps, dwells, reversals, a heater voltage)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Columns:
+    """An effect's terms at one setting, linearised at a :class:`Context`.
+
+    ``values[i]`` ``(n_i, k)``: the output change (um) per unit of each
+    coefficient at every point of run ``i``; ``labels`` ``(k,)`` name the
+    coefficients; ``nonneg`` ``(k,)`` marks coefficients that are >= 0 by
+    their physics; ``run_of`` ``(k,)`` is the index of the run a per-run
+    coefficient belongs to, ``-1`` for a structural one.  ``roughness``
+    ``(k, k)`` (or None) is a penalty on the coefficients, applied with
+    weight ``smoothing`` (relative to the data).
+    """
+
+    values: tuple[np.ndarray, ...]
+    labels: tuple[str, ...]
+    nonneg: tuple[bool, ...]
+    run_of: tuple[int, ...]
+    roughness: np.ndarray | None = None
+    smoothing: float = 0.0
+
+    @property
+    def k(self) -> int:
+        return len(self.labels)
+
+
+@dataclass(frozen=True, eq=False)
+class Context:
+    """Where effects are linearised, and what they may use of the runs and the current model.
+
+    ``model`` is the current model's equation (22) part (its ``effects``
+    are ignored here); per run ``i`` (identification runs first, then, in a
+    diagnosis, the check runs), each ``(n_i,)``: ``inputs`` the hysterons'
+    input at the current state (the heater voltage unless an input effect is
+    on), ``thermal`` what the thermal term ``c_d`` multiplies, ``predictions``
+    the model's output before the sensor stage (um), and ``feedback`` the
+    output the hysterons are taken to feel (the measured output where
+    measured, else the prediction).  ``output_centre``/``output_half_range``
+    (um) describe the identification outputs.
+    """
+
+    grid: Grid
+    model: "PreisachModel"
+    runs: tuple[Run, ...]
+    inputs: tuple[np.ndarray, ...]
+    thermal: tuple[np.ndarray, ...]
+    predictions: tuple[np.ndarray, ...]
+    feedback: tuple[np.ndarray, ...]
+    output_centre: float
+    output_half_range: float
+    #: ``x -> sum mu_ij s_ij(x) + mu0`` for ``model`` (the thermal term left out), ``(n,)`` -> ``(n,)``;
+    #: None: :meth:`PreisachModel.predict`.  The joint fit passes a cached one.
+    hysteresis: Callable[[np.ndarray], np.ndarray] | None = None
+
+    @classmethod
+    def of_model(cls, model: "PreisachModel", runs: tuple[Run, ...] | list[Run], n_fit: int | None = None) -> "Context":
+        """The context of an equation (22) model without effects: the inputs are the heater voltages.
+
+        ``n_fit`` (default: all) is how many leading runs are identification
+        runs, whose measured outputs set the output scale.
+        """
+        runs = tuple(runs)
+        preds = tuple(model.predict(r.inputs) for r in runs)
+        fit = runs[: len(runs) if n_fit is None else n_fit] or runs
+        measured = np.concatenate([r.measured for r in fit])
+        lo, hi = float(np.min(measured)), float(np.max(measured))
+        return cls(model.grid, model, runs, tuple(r.inputs for r in runs), tuple(r.inputs for r in runs), preds,
+                   tuple(feedback_of(r, p) for r, p in zip(runs, preds)),
+                   0.5 * (lo + hi), max(0.5 * (hi - lo), 1e-12))
+
+    def response(self, i: int, x: np.ndarray, thermal: np.ndarray | None = None) -> np.ndarray:
+        """The equation (22) part's output (um) on run ``i`` with hysterons' input ``x`` ``(n_i,)`` and
+        the thermal term on ``thermal`` (default: as in this context)."""
+        m = self.model
+        th = self.thermal[i] if thermal is None else thermal
+        x = np.asarray(x, dtype=float)
+        part = self.hysteresis(x) if self.hysteresis is not None else m.predict(x) - m.c_d * x
+        return part + m.c_d * np.asarray(th, dtype=float)
+
+
+def feedback_of(run: Run, prediction: np.ndarray) -> np.ndarray:
+    """The output a run's hysterons are taken to feel: measured where measured, else ``prediction``."""
+    return np.where(np.isfinite(run.outputs), run.outputs, prediction)
+
+
+class Effect(ABC):
+    """One unmodelled effect (see the module doc); ``params`` None until fitted."""
+
+    #: The effect's name (command lines, stored models, the diagnosis).
+    name: ClassVar[str]
+    #: One line for reports.
+    summary: ClassVar[str]
+    #: The stage it acts at: :data:`INPUT`, :data:`OUTPUT` or :data:`SENSOR`.
+    stage: ClassVar[str]
+    #: A nuisance that differs from run to run (a drift), fitted per run.
+    per_run: ClassVar[bool] = False
+    #: Its terms span the thermal term ``c_d v`` (and more): the model is fitted without it.
+    replaces_thermal_term: ClassVar[bool] = False
+    #: (input effects) the thermal term follows the effect's transformed input (the beam's temperature).
+    drives_thermal_term: ClassVar[bool] = False
+    #: Names of settings refined continuously (on a log scale) after the grid search, in the joint fit.
+    continuous: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, params: dict[str, Any] | None = None) -> None:
+        self.params = None if params is None else self.check_params(dict(params))
+
+    @property
+    def fitted(self) -> bool:
+        return self.params is not None
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.params!r})"
+
+    # ------------------------------------------------------------ what runs must record
+    def applicable(self, runs: tuple[Run, ...]) -> str | None:
+        """Why this effect cannot act on these runs at all (None: it can): a run lacks what it needs."""
+        return None
+
+    def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
+        """Why these runs cannot identify the effect's parameters (None: they can)."""
+        return self.applicable(runs)
+
+    # ------------------------------------------------------------ terms, linearised
+    def settings_grid(self) -> list[dict[str, float]]:
+        """The nonlinear settings to try (each a dict); ``[{}]`` when there are none."""
+        return [{}]
+
+    def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """The effect's terms at ``setting``, linearised at ``ctx`` (see :class:`Columns`)."""
+        raise NotImplementedError
+
+    def nuisance_columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """(per-run effects) The terms that re-estimate this effect on a run it was not fitted on
+        (:mod:`identify.effects.nuisance`); default :meth:`columns`."""
+        return self.columns(ctx, setting)
+
+    def with_fit(self, ctx: Context, setting: dict[str, float], coef: np.ndarray, cols: Columns) -> "Effect":
+        """A fitted instance from the coefficients ``coef`` ``(k,)`` of ``cols`` (the columns of ``setting``
+        at ``ctx``).  Input effects' coefficients are steps from this instance's parameters (zero when
+        unfitted); the others' are the coefficients themselves."""
+        raise NotImplementedError
+
+    def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
+        """The fitted effect in physical terms for reports (default: its parameters); ``runs`` lets a
+        per-run effect describe each run's nuisance over its measured points."""
+        return dict(self.params or {})
+
+    def fit_settings_grid(self) -> list[dict[str, float]]:
+        """The settings the joint fit of a model tries (default: :meth:`settings_grid`); penalty weights
+        that only the diagnosis's cross-validation can choose are left out."""
+        return self.settings_grid()
+
+    def with_setting(self, setting: dict[str, float], ctx: Context | None = None) -> "Effect":
+        """(input effects) This effect at ``setting`` with its coefficients kept (an unfitted one may start
+        from a value the setting gives, scaled by ``ctx``): the point the joint fit linearises at when it
+        tries the setting.  Other effects' settings only choose columns."""
+        return self
+
+    def bounds(self) -> dict[str, float]:
+        """Largest plausible ``|coefficient|`` by label, where physics bounds it (the diagnosis's visibility test)."""
+        return {}
+
+    # ------------------------------------------------------------ acting on a run (fitted)
+    def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
+        """Validate stored parameters; raise :class:`IdentifyError` naming what is wrong."""
+        return params
+
+    def transform(self, run: Run, x: np.ndarray) -> np.ndarray:
+        """(input) The hysterons' input ``(n,)`` given the input ``x`` ``(n,)`` before this effect."""
+        return x
+
+    def contribution(self, run: Run) -> np.ndarray:
+        """(output) The effect's contribution to the output (um) at every point of ``run``, ``(n,)``."""
+        return np.zeros(run.n)
+
+    def sense(self, u: np.ndarray) -> np.ndarray:
+        """(sensor) The reading (um) for the deflection ``u`` (um), same shape."""
+        return u
+
+    def slope(self, u: np.ndarray) -> np.ndarray:
+        """(sensor) ``d reading / d u`` at ``u``, same shape."""
+        return np.ones_like(np.asarray(u, dtype=float))
+
+
+# ---------------------------------------------------------------- shared helpers
+def require_params(params: dict[str, Any], keys: tuple[str, ...], effect: str) -> None:
+    missing = [k for k in keys if k not in params]
+    if missing:
+        raise IdentifyError(f"effect {effect!r} is missing the parameter(s) {', '.join(missing)}")
+
+
+def finite(params: dict[str, Any], key: str, effect: str) -> float:
+    try:
+        value = float(params[key])
+    except (TypeError, ValueError):
+        raise IdentifyError(f"effect {effect!r}: parameter {key!r} is not a number") from None
+    if not np.isfinite(value):
+        raise IdentifyError(f"effect {effect!r}: parameter {key!r} is not finite")
+    return value
+
+
+def finite_array(params: dict[str, Any], key: str, effect: str) -> np.ndarray:
+    try:
+        value = np.asarray(params[key], dtype=float)
+    except (TypeError, ValueError):
+        raise IdentifyError(f"effect {effect!r}: parameter {key!r} is not a list of numbers") from None
+    if value.ndim != 1 or not np.all(np.isfinite(value)):
+        raise IdentifyError(f"effect {effect!r}: parameter {key!r} must be a list of finite numbers")
+    return value
+
+
+def needs_heater(runs: tuple[Run, ...]) -> str | None:
+    """Not applicable unless the input is a heater voltage (V): the effect is heater physics."""
+    units = {r.input_unit for r in runs}
+    if units != {"V"}:
+        return (f"it is heater physics (the input as a heater voltage), and these runs' input is in "
+                f"{', '.join(sorted(units))}")
+    return None
+
+
+def needs_time(runs: tuple[Run, ...]) -> str | None:
+    """Not applicable when a run's time stamps carry no information."""
+    untimed = [r.name for r in runs if not r.timed]
+    if untimed:
+        return f"it acts over time, and {', '.join(untimed)} record(s) no time (all time stamps equal)"
+    return None
+
+
+def needs_reversals(runs: tuple[Run, ...], what: str) -> str | None:
+    """Not identifiable when no run's input ever turns back."""
+    if not any(r.history.reversal_index.size for r in runs):
+        return f"{what}, and the input never turns back in {', '.join(r.name for r in runs)}"
+    return None
+
+
+def single_columns(runs: tuple[Run, ...], values: list[np.ndarray], labels: tuple[str, ...],
+                   nonneg: tuple[bool, ...] | None = None) -> Columns:
+    """Structural columns (shared by every run): ``values[i]`` ``(n_i, k)``."""
+    k = len(labels)
+    return Columns(tuple(np.asarray(v, dtype=float).reshape(r.n, k) for r, v in zip(runs, values)), labels,
+                   nonneg if nonneg is not None else (False,) * k, (-1,) * k)

@@ -1,0 +1,71 @@
+"""``baseline_drift``: the sensor zero wanders over session time (laser pointing, mechanics).
+
+A smooth function of session time per run (um): a penalised cubic spline
+with knots every :data:`~identify.effects.bases.KNOT_S` seconds.  The
+first run's drift has zero mean over its measured points (its constant is
+the bias's).  A
+per-run nuisance: a stored model knows the drift of the runs it was fitted
+on, by name, and nothing of another run's.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import IdentifyError
+from ..runs import Run
+from .ambient_drift import FIT_SMOOTHING, SMOOTHING, drift_report
+from .base import OUTPUT, Columns, Context, Effect, needs_time
+from .bases import per_run_columns, run_splines, spline_of, time_splines
+
+
+class BaselineDrift(Effect):
+    name = "baseline_drift"
+    summary = "the sensor zero drifts over session time (laser pointing, mechanics)"
+    stage = OUTPUT
+    per_run = True
+
+    def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
+        if not isinstance(params.get("runs"), dict):
+            raise IdentifyError(f"effect {self.name!r} needs 'runs': {{run name: spline}}")
+        return {"runs": params["runs"]}
+
+    def applicable(self, runs: tuple[Run, ...]) -> str | None:
+        return needs_time(runs)
+
+    def settings_grid(self) -> list[dict[str, float]]:
+        return [{"smoothing": w} for w in SMOOTHING]
+
+    def fit_settings_grid(self) -> list[dict[str, float]]:
+        return [{"smoothing": FIT_SMOOTHING}]
+
+    def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """Each run's splines; the first run's centred on its measured points (its constant is the bias
+        ``mu0``'s, which the model fits anyway)."""
+        blocks = [time_splines(r) for r in ctx.runs]
+        first = ctx.runs[0]
+        blocks[0] = blocks[0] - blocks[0][first.rows].mean(axis=0)
+        return per_run_columns(ctx.runs, blocks, "spline", setting.get("smoothing", 0.0))
+
+    def nuisance_columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """On another run the drift has its own constant too (each run its own sensor zero)."""
+        return per_run_columns(ctx.runs, [time_splines(r) for r in ctx.runs], "spline", setting.get("smoothing", 0.0))
+
+    def with_fit(self, ctx, setting, coef, cols) -> "BaselineDrift":
+        previous = (self.params or {}).get("runs", {})
+        fitted = run_splines(ctx.runs, cols, coef)
+        first = ctx.runs[0]
+        if first.name in fitted:  # the columns were centred: so is the spline (its functions add up to one)
+            c = np.asarray(fitted[first.name]["coefficients"])
+            c = c - time_splines(first)[first.rows].mean(axis=0) @ c
+            fitted[first.name]["coefficients"] = c.tolist()
+        return BaselineDrift({"runs": {**previous, **fitted}})
+
+    def contribution(self, run: Run) -> np.ndarray:
+        entry = self.params["runs"].get(run.name)
+        return np.zeros(run.n) if entry is None else spline_of(entry, run.t_s)
+
+    def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
+        return drift_report(self.params, "um", runs)

@@ -1,0 +1,200 @@
+"""A model with effects acting on a run: the hysterons' input, the output, each effect's contribution.
+
+The pipeline (:mod:`identify.effects.base`): the input effects transform
+the heater voltage in turn (thermal lag, ambient drift), the memory curve
+sees the result, equation (22) gives the output with the thermal term on
+the heater voltage (or on the lagged input), the output effects add their
+contributions and the sensor effects map it to the reading.
+
+With ``interaction`` the hysterons' input depends on the output, which
+depends on the memory state the input sets.  :func:`predict_run` then
+steps the memory one point at a time and solves the fixed point
+
+    x = a + k (b + P(x))
+
+exactly, ``a`` the input after the other input effects, ``b`` the part of
+the output that does not depend on the memory (``mu0``, the thermal term,
+the output effects) and ``P`` the Preisach part along the memory curve.  As
+the input moves, ``x`` moves continuously from where it was -- it does not
+jump to another solution -- so the solution is the *first* root of
+``g(x) = a + k (b + P(x)) - x`` in the direction ``g`` points from the
+previous ``x``: a quasi-static sweep of the input reaches exactly that one
+(if ``g`` grows with ``x`` there, as with strong positive feedback, the
+state runs away to the next stable root: an avalanche).  Between two
+walls of the grid and two corners of the memory curve ``P`` is a
+quadratic of ``x`` (:mod:`identify.everett`), so each piece's roots are
+those of a quadratic through three of its points; beyond the grid ``P`` is
+constant.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING, Iterable
+
+import numpy as np
+
+from ..runs import Run
+from . import pipeline_order
+from .base import INPUT, OUTPUT, SENSOR, Effect, EffectNotApplicable
+from .interaction import Interaction
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..model import PreisachModel
+
+
+def check_applicable(effects: Iterable[Effect], run: Run) -> None:
+    """Raise :class:`EffectNotApplicable` when ``run`` lacks what an effect needs."""
+    for e in effects:
+        why = e.applicable((run,))
+        if why is not None:
+            raise EffectNotApplicable(f"the model's effect {e.name} cannot act on {run.name}: {why}")
+
+
+def hysteron_inputs(effects: Iterable[Effect], run: Run, feedback: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, thermal)`` ``(n,)`` each: what the memory curve sees and what the thermal term multiplies.
+
+    ``feedback`` is the output the hysterons feel (needed with ``interaction``)."""
+    x = run.inputs
+    thermal = run.inputs
+    for e in pipeline_order(effects):
+        if e.stage != INPUT or not e.fitted:
+            continue
+        x = e.transform(run, x, feedback)
+        if e.drives_thermal_term:
+            thermal = x
+    return x, thermal
+
+
+def preisach_output(model: "PreisachModel", x: np.ndarray, thermal: np.ndarray) -> np.ndarray:
+    """Equation (22)'s output (um) with hysterons' input ``x`` and the thermal term on ``thermal``."""
+    bare = replace(model, effects=()) if model.effects else model
+    return bare.predict(x) + bare.c_d * (np.asarray(thermal, dtype=float) - np.asarray(x, dtype=float))
+
+
+def output_contributions(effects: Iterable[Effect], run: Run) -> np.ndarray:
+    """The output effects' contributions summed (um), ``(n,)``."""
+    total = np.zeros(run.n)
+    for e in effects:
+        if e.stage == OUTPUT and e.fitted:
+            total += e.contribution(run)
+    return total
+
+
+def sensed(effects: Iterable[Effect], u: np.ndarray) -> np.ndarray:
+    """The reading for deflection ``u`` through the sensor effects."""
+    for e in pipeline_order(effects):
+        if e.stage == SENSOR and e.fitted:
+            u = e.sense(u)
+    return u
+
+
+def deflection(model: "PreisachModel", run: Run, effects: Iterable[Effect] | None = None,
+               feedback: np.ndarray | None = None) -> np.ndarray:
+    """The output before the sensor stage (um), ``(n,)``.  ``feedback``: the output the hysterons feel
+    (with ``interaction``); None solves the fixed point (prediction)."""
+    effects = list(model.effects if effects is None else effects)
+    extra = output_contributions(effects, run)
+    inter = next((e for e in effects if isinstance(e, Interaction) and e.k != 0.0), None)
+    if inter is None or feedback is not None:
+        x, thermal = hysteron_inputs(effects, run, feedback)
+        return preisach_output(model, x, thermal) + extra
+    others = [e for e in effects if e is not inter]
+    a, thermal = hysteron_inputs(others, run)
+    b = model.mu0 + model.c_d * thermal + extra
+    return _fixed_point(model, a, b, inter.k)
+
+
+def predict_run(model: "PreisachModel", run: Run, effects: Iterable[Effect] | None = None) -> np.ndarray:
+    """The model's reading (um) at every point of ``run``, ``(n,)``, from negative saturation.
+
+    Raises :class:`EffectNotApplicable` when the run lacks what an effect needs.
+    """
+    effects = list(model.effects if effects is None else effects)
+    check_applicable(effects, run)
+    return sensed(effects, deflection(model, run, effects))
+
+
+def contributions(model: "PreisachModel", run: Run) -> dict[str, np.ndarray]:
+    """Each effect's contribution to the reading (um), ``(n,)`` each: the prediction minus the prediction
+    with that effect left out (the others kept)."""
+    full = predict_run(model, run)
+    out = {}
+    for e in model.effects:
+        rest = [f for f in model.effects if f is not e]
+        out[e.name] = full - predict_run(model, run, rest)
+    return out
+
+
+# ---------------------------------------------------------------- the mean-field fixed point
+def _fixed_point(model: "PreisachModel", a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
+    """``u = b + P(x)`` with ``x = a + k u`` at every point, the memory stepped point by point."""
+    from ..forward import HysteresisState
+
+    bare = replace(model, mu0=0.0, c_d=0.0, effects=())
+    state = HysteresisState(bare)
+    grid = model.grid
+    walls = grid.walls
+    x = grid.v_min  # negative saturation: the input at or below the lowest wall
+    p_here = state.output
+    u = np.empty(a.size)
+    for n in range(a.size):
+        x = _first_root(state, walls, grid.v_min, grid.step, float(a[n]), float(b[n]), k, x, p_here)
+        p_here = state.apply(x)
+        u[n] = b[n] + p_here
+    return u
+
+
+def _breakpoints(state, walls: np.ndarray, v_min: float, step: float, x: float, d: float) -> list[float]:
+    """Where ``P`` may change its quadratic piece moving from ``x`` in direction ``d``: the walls and the
+    memory curve's corners ahead (input units), nearest first."""
+    a, b = state.curve.corners
+    corners = v_min + step * (a if d > 0 else b)
+    points = np.concatenate([walls, corners])
+    ahead = points[(points - x) * d > 1e-12 * step]
+    return sorted(set(ahead.tolist()), key=lambda p: (p - x) * d)
+
+
+def _first_root(state, walls, v_min, step, a, b, k, x0, p0) -> float:
+    g0 = a + k * (b + p0) - x0
+    if g0 == 0.0:
+        return x0
+    d = 1.0 if g0 > 0 else -1.0
+    lo, g_lo = x0, g0
+    for hi in _breakpoints(state, walls, v_min, step, x0, d):
+        g_hi = a + k * (b + state.peek(hi)) - hi
+        if g_hi * d <= 0:
+            mid = 0.5 * (lo + hi)
+            g_mid = a + k * (b + state.peek(mid)) - mid
+            return _quadratic_root(lo, mid, hi, g_lo, g_mid, g_hi, d)
+        lo, g_lo = hi, g_hi
+    # beyond the grid P is constant: g falls with slope -1 in the direction of motion
+    return a + k * (b + state.peek(lo + d * step))
+
+
+def _quadratic_root(x0: float, x1: float, x2: float, g0: float, g1: float, g2: float, d: float) -> float:
+    """The root of the quadratic through ``(x_i, g_i)`` nearest to ``x0`` on ``[x0, x2]`` (``g0 * d > 0``,
+    ``g2 * d <= 0``)."""
+    if g2 == 0.0:
+        candidates = [x2]
+    else:
+        candidates = []
+    h = x2 - x0
+    # g(t) = g0 + c1 t + c2 t^2 on t = (x - x0) / h in [0, 1]
+    c2 = 2.0 * (g2 - 2.0 * g1 + g0)
+    c1 = g2 - g0 - c2
+    if abs(c2) <= 1e-14 * (abs(g0) + abs(g1) + abs(g2)):
+        candidates.append(x0 + h * (-g0 / c1) if c1 != 0 else x2)
+    else:
+        disc = c1 * c1 - 4.0 * c2 * g0
+        if disc >= 0:
+            sq = math.sqrt(disc)
+            q = -0.5 * (c1 + math.copysign(sq, c1))
+            for t in (q / c2, g0 / q if q != 0 else math.inf):
+                if -1e-12 <= t <= 1.0 + 1e-12:
+                    candidates.append(x0 + h * min(max(t, 0.0), 1.0))
+    if not candidates:  # rounding at a root on the edge
+        return x2
+    return min(candidates, key=lambda x: abs(x - x0))
