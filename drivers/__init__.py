@@ -14,6 +14,9 @@ Layers (one module, one job):
   ``modbus`` driver; :mod:`~drivers.serial_backend` -- the ``serial`` driver;
   :mod:`~drivers.retry` -- reconnection with back-off;
 * :mod:`~drivers.sim` -- the simulated VO2 device and its servers;
+* :mod:`~drivers.backends` -- the registry of backends (``driver = ...``);
+  :mod:`~drivers.setpoints` -- every rule a set-point passes, the window;
+  :mod:`~drivers.instrument_lock` -- one run per instrument;
 * :mod:`~drivers.rig` -- :class:`Rig` and :func:`open_rig`;
   :mod:`~drivers.selftest` -- ``rig selftest``.
 """
@@ -24,15 +27,18 @@ from .errors import (
     CodecError,
     ConfigError,
     ConnectionFailed,
+    ContinuityError,
     DeviceError,
     DriverError,
     DriverTimeout,
+    InstrumentBusy,
     LimitError,
     ProtocolError,
     SafeStateError,
     SensorError,
+    SetpointRefused,
 )
-from .protocols import Calibration, Clock, DeflectionSensor, HeaterOutput, Reading, VoltageWindow
+from .protocols import Calibration, Clock, DeflectionSensor, HeaterOutput, Reading, SafeState, VoltageWindow
 from .rig import Rig, open_rig
 
 __all__ = [
@@ -41,19 +47,23 @@ __all__ = [
     "CodecError",
     "ConfigError",
     "ConnectionFailed",
+    "ContinuityError",
     "DeflectionSensor",
     "DeviceError",
     "DriverError",
     "DriverTimeout",
     "HeaterOutput",
+    "InstrumentBusy",
     "LimitError",
     "ProtocolError",
     "Reading",
     "RealClock",
     "Rig",
     "RigConfig",
+    "SafeState",
     "SafeStateError",
     "SensorError",
+    "SetpointRefused",
     "VirtualClock",
     "VoltageWindow",
     "default_config",

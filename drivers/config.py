@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .backends import BACKENDS
 from .configschema import as_dict, parse_table, setting
 from .errors import ConfigError
 from .limits import HeaterLimits
@@ -45,7 +46,7 @@ from .modbus_registers import InputPoint, RegisterPoint, overlap
 from .protocols import Calibration
 from .sim.params import SimParams
 
-DRIVERS = ("sim", "modbus", "serial")
+DRIVERS = tuple(BACKENDS)
 CLOCKS = ("real", "virtual")
 MODBUS_TRANSPORTS = ("tcp", "rtu-over-tcp", "rtu")
 
@@ -68,6 +69,12 @@ class HeaterConfig:
         default=0.0, unit="ohm", minimum=0.0,
     )
     selftest_V: float = setting("the small, safe voltage 'rig selftest' applies", default=0.5, unit="V")
+    full_scale_V: float | None = setting(
+        "the output's full scale from the instrument's datasheet (+-V); set-points beyond it are refused before "
+        "a run, and 'rig selftest' fails if the window reaches beyond it (omit: unknown, or read from the "
+        "instrument where it reports it)",
+        default=None, unit="V", positive=True,
+    )
 
     def __post_init__(self) -> None:
         if not self.min_V <= 0.0 <= self.max_V or not self.max_V > self.min_V:
@@ -133,20 +140,40 @@ class ModbusConfig(LinkConfig):
     unit_id: int = setting("Modbus unit (slave) id of the instrument", default=1, minimum=0, maximum=247)
     setpoint: RegisterPoint = setting("[modbus.setpoint] the heater set-point register (V), a holding register")
     psd: InputPoint = setting("[modbus.psd] the PSD voltage register (V)")
+    boot_id: InputPoint | None = setting(
+        "[modbus.boot_id] optional: a register whose value changes whenever the instrument restarts "
+        "(a boot counter or random boot id), read on opening and after every reconnection",
+        default=None,
+    )
+    full_scale: InputPoint | None = setting(
+        "[modbus.full_scale] optional: a register holding the heater output's full scale (V), read on opening",
+        default=None,
+    )
+
+    def points(self) -> dict[str, RegisterPoint]:
+        """Every configured register by its table name (``setpoint``, ``psd``, and the optional ones)."""
+        named = {"setpoint": self.setpoint, "psd": self.psd, "boot_id": self.boot_id, "full_scale": self.full_scale}
+        return {name: p for name, p in named.items() if p is not None}
 
     def __post_init__(self) -> None:
         if self.transport == "rtu" and not self.url:
             raise ValueError("transport = 'rtu' needs url (the serial port)")
         if self.setpoint.table != "holding":
             raise ValueError("the heater set-point must be a holding register (it is written)")
-        if overlap(self.setpoint, self.psd):
-            raise ValueError("the set-point and PSD registers overlap")
+        named = list(self.points().items())
+        for i, (a, pa) in enumerate(named):
+            for b, pb in named[i + 1:]:
+                if overlap(pa, pb):
+                    raise ValueError(f"the {a} and {b} registers overlap")
 
     @classmethod
     def simulated(cls, **changes: Any) -> "ModbusConfig":
-        """The simulated bench's default: float32 set-point in holding 0, float32 PSD in input 0."""
+        """The simulated bench's default: float32 set-point in holding 0, float32 PSD in input 0,
+        the boot id as a uint32 in input 2, the output's full scale as a float32 in input 4."""
         changes.setdefault("setpoint", RegisterPoint(address=0))
         changes.setdefault("psd", InputPoint(address=0))
+        changes.setdefault("boot_id", InputPoint(address=2, type="uint32"))
+        changes.setdefault("full_scale", InputPoint(address=4))
         return cls(**changes)
 
     def endpoint(self) -> str:
@@ -245,8 +272,9 @@ class RigConfig:
     source: str = field(default="<built-in>", init=False, compare=False)
 
     def __post_init__(self) -> None:
-        if self.driver in ("modbus", "serial") and getattr(self, self.driver) is None:
-            raise ValueError(f"driver = '{self.driver}' needs a [{self.driver}] table")
+        table = BACKENDS[self.driver].table
+        if getattr(self, table, None) is None:
+            raise ValueError(f"driver = '{self.driver}' needs a [{table}] table")
         if self.clock == "virtual" and self.driver != "sim":
             raise ValueError("clock = 'virtual' is only for driver = 'sim' (real hardware needs real time)")
 

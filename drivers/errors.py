@@ -46,8 +46,17 @@ class DeviceError(DriverError):
     """The instrument answered with an error of its own (SCPI error reply, device fault)."""
 
 
+class SetpointRefused(DeviceError):
+    """The instrument refused a set-point (beyond its range): a plan with that point cannot run on it."""
+
+
 class SensorError(DriverError):
     """The PSD gave no usable reading (NaN, or saturated at a rail) after the retries."""
+
+
+class ContinuityError(ConnectionFailed):
+    """After a reconnection the instrument is not the one the run was talking to: it restarted (its boot
+    id changed) or lost its output.  Whatever state the beam was in -- its hysteresis memory -- is gone."""
 
 
 class SafeStateError(DriverError):
@@ -56,6 +65,10 @@ class SafeStateError(DriverError):
 
 class CodecError(DriverError, ValueError):
     """A value cannot be represented in a register format (NaN in an integer, overflow)."""
+
+
+class InstrumentBusy(DriverError):
+    """Another run holds the instrument (one run per instrument; see :mod:`drivers.instrument_lock`)."""
 
 
 class ServeError(DriverError, ValueError):

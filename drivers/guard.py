@@ -3,11 +3,19 @@
 * :func:`delay_keyboard_interrupt` -- a Ctrl-C (or a SIGTERM turned into
   one) that arrives while a set-point transaction is on the wire is held
   until the transaction is complete (the link is never left with a
-  half-read reply), then raised.  A second one interrupts at once.
-  Modelled on QCoDeS' ``DelayedKeyboardInterrupt``.
+  half-read reply), then handed to the handler that was there before.  A
+  second one is handed on at once (the operator insists).  Modelled on
+  QCoDeS' ``DelayedKeyboardInterrupt``.
 * :func:`terminate_as_interrupt` -- SIGTERM raises :class:`KeyboardInterrupt`,
   so ``kill PID`` goes through the same ``finally`` blocks (heater to 0 V)
-  as Ctrl-C.  Installed by commands, never by library code on its own.
+  as Ctrl-C -- once: further SIGTERMs inside the block are ignored, so a
+  burst of them cannot interrupt the way to the safe state.  Installed by
+  commands, never by library code on its own.
+
+Signals are always handed on to the handler that was installed before
+(never turned into a ``KeyboardInterrupt`` here), so a handler that ignores
+repeated signals -- :class:`rig.acquisition.PauseSwitch` once an abort has
+started -- keeps ignoring them inside these guards too.
 
 Signal handlers can only be installed from the main thread; elsewhere both
 guards do nothing.
@@ -47,7 +55,8 @@ def delay_keyboard_interrupt() -> Iterator[None]:
     def handler(signum: int, frame: FrameType | None) -> None:
         if received:  # second signal: the operator insists
             restore()
-            raise KeyboardInterrupt
+            olds[signum](signum, frame)
+            return
         received.append((signum, frame))
         print("Interrupt received: finishing the instrument transaction first.", file=sys.stderr)
 
@@ -64,12 +73,19 @@ def delay_keyboard_interrupt() -> Iterator[None]:
 
 @contextmanager
 def terminate_as_interrupt() -> Iterator[None]:
-    """Within the block, SIGTERM raises :class:`KeyboardInterrupt` (then the old handler returns)."""
+    """Within the block, the first SIGTERM raises :class:`KeyboardInterrupt`; later ones are ignored.
+
+    The old handler returns when the block ends.
+    """
     if not _main_thread():
         yield
         return
+    fired: list[int] = []
 
     def handler(signum: int, frame: FrameType | None) -> None:
+        if fired:
+            return
+        fired.append(signum)
         raise KeyboardInterrupt
 
     old = signal.signal(signal.SIGTERM, handler)

@@ -25,13 +25,16 @@ from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
 from pymodbus.pdu import ExceptionResponse
 
+from .backends import OpenedBackend
 from .channels import GuardedHeater, PSDSensor
-from .config import ModbusConfig
+from .config import ModbusConfig, RigConfig
+from .instrument_lock import host_port, serial_port_name
 from .errors import CodecError, ConfigError
 from .limits import HeaterLimits
 from .modbus_errors import TRANSIENT_CODES, exception_response, quiet_pymodbus
 from .modbus_registers import RegisterPoint
-from .protocols import Calibration
+from .protocols import Calibration, Clock
+from .setpoints import SetpointRules
 from .retry import Backoff, BadReply, LinkDropped, NoReply, with_retries
 
 quiet_pymodbus()
@@ -72,13 +75,18 @@ class ModbusLink:
         self._sleep = sleep
         self._client = make_client(cfg)
         self._backoff = Backoff(cfg.retries, cfg.backoff_s, cfg.backoff_max_s)
-        #: Reconnections made since opening (for diagnostics and tests).
+        #: Reconnections attempted since opening (for diagnostics and tests).
         self.reconnections = 0
+        #: Connections established since opening: the first is 1, each later one a reconnection.
+        self.connections = 0
 
     # ------------------------------------------------------------ connection
     def _connect_once(self) -> None:
+        if self._client.connected:
+            return
         if not self._client.connect():
             raise LinkDropped("refused or unreachable")
+        self.connections += 1
 
     def _reconnect(self) -> None:
         self._client.close()
@@ -104,6 +112,9 @@ class ModbusLink:
             except (ModbusException, OSError) as exc:
                 self._client.close()  # a late reply must never answer the next request
                 raise _retryable(exc)(str(exc)) from None
+            except BaseException:  # interrupted mid-transaction (Ctrl-C, SIGTERM): same rule
+                self._client.close()
+                raise
             if isinstance(response, ExceptionResponse) or response.isError():
                 code = int(getattr(response, "exception_code", 0))
                 error = exception_response(code, f"{what} on {self.endpoint}")
@@ -142,10 +153,15 @@ class ModbusLink:
 
 
 class ModbusHeater(GuardedHeater):
-    """The heater set-point in a holding register."""
+    """The heater set-point in a holding register; the instrument's boot id in ``[modbus.boot_id]`` and
+    its output's full scale in ``[modbus.full_scale]``, if it has them (read on opening)."""
 
-    def __init__(self, link: ModbusLink, limits: HeaterLimits) -> None:
-        super().__init__(limits)
+    def __init__(self, link: ModbusLink, limits: HeaterLimits, full_scale_V: float | None = None) -> None:
+        reported = None
+        if link.cfg.full_scale is not None:
+            reported = abs(link.read(link.cfg.full_scale, "the output's full scale"))
+        known = [v for v in (full_scale_V, reported) if v is not None]
+        super().__init__(limits, min(known) if known else None)
         self.link = link
         self.point = link.cfg.setpoint
         window = limits.window
@@ -164,6 +180,13 @@ class ModbusHeater(GuardedHeater):
     def _read_voltage(self) -> float:
         return self.link.read(self.point, "the heater set-point")
 
+    def _link_epoch(self) -> int:
+        return self.link.connections
+
+    def _instrument_identity(self) -> float | None:
+        boot = self.link.cfg.boot_id
+        return None if boot is None else self.link.read(boot, "the boot id")
+
 
 class ModbusPSD(PSDSensor):
     """The PSD voltage in an input (or holding) register."""
@@ -174,3 +197,34 @@ class ModbusPSD(PSDSensor):
 
     def _read_psd(self) -> float:
         return self.link.read(self.link.cfg.psd, "the PSD voltage")
+
+
+# ---------------------------------------------------------------- the backend (see drivers.backends)
+def open_backend(cfg: RigConfig, clock: Clock, device: object = None) -> OpenedBackend:
+    """The ``modbus`` driver: connect (with the configured retries) and map the registers of ``[modbus]``."""
+    m = cfg.modbus
+    assert m is not None
+    link = ModbusLink(m)
+    link.connect()
+    try:
+        heater = ModbusHeater(link, cfg.heater.limits(), cfg.heater.full_scale_V)
+    except BaseException:
+        link.close()
+        raise
+    sens = cfg.sensor
+    sensor = ModbusPSD(link, sens.calibration(), sens.saturation_V, sens.retries)
+    description = {"endpoint": link.endpoint, "setpoint": m.setpoint.describe(), "psd": m.psd.describe()}
+    return OpenedBackend(heater, sensor, [link.close], description)
+
+
+def setpoint_rules(cfg: RigConfig) -> SetpointRules:
+    assert cfg.modbus is not None
+    return SetpointRules(cfg.heater.limits(), cfg.modbus.setpoint.on_wire, cfg.heater.full_scale_V)
+
+
+def instrument_address(cfg: RigConfig) -> str | None:
+    m = cfg.modbus
+    assert m is not None
+    if m.transport == "rtu":
+        return f"modbus rtu {serial_port_name(str(m.url))} unit {m.unit_id}"
+    return f"modbus {host_port(m.host, m.port)} unit {m.unit_id}"

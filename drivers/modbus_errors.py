@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 
-from .errors import DeviceError
+from .errors import DeviceError, SetpointRefused
 
 
 def quiet_pymodbus() -> None:
@@ -35,7 +35,7 @@ class IllegalDataAddress(ModbusExceptionResponse):
     code, meaning = 2, "illegal data address: check the register map in rig.toml"
 
 
-class IllegalDataValue(ModbusExceptionResponse):
+class IllegalDataValue(ModbusExceptionResponse, SetpointRefused):
     code, meaning = 3, "illegal data value: the instrument refused the value"
 
 

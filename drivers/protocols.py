@@ -72,6 +72,39 @@ class Reading:
     calibration: Calibration
 
 
+@dataclass(frozen=True)
+class SafeState:
+    """What is *known* about the heater after it was asked to go to 0 V, the safe state.
+
+    ``confirmed`` only when a 0 V write was acknowledged by the instrument
+    and the output, read back, is 0 V: only then may anything say "heater
+    at 0 V".  Otherwise ``problem`` says what failed, and ``last_V`` is the
+    last set-point the instrument acknowledged (V; ``None`` if none) --
+    what a dead or hung instrument keeps driving -- and ``unacknowledged_V``
+    a later non-zero set-point that was sent but never acknowledged (it may
+    have arrived).
+    """
+
+    confirmed: bool
+    acknowledged: bool
+    readback_V: float | None
+    last_V: float | None
+    problem: str = ""
+    unacknowledged_V: float | None = None
+
+    def describe(self) -> str:
+        """One clause for messages and the session log: the fact, or plainly that it is unknown."""
+        if self.confirmed:
+            return "heater at 0 V (0 V written and read back)"
+        held = []
+        if self.last_V is not None:
+            held.append(f"{self.last_V:g} V, the last set-point the instrument acknowledged")
+        if self.unacknowledged_V is not None and self.unacknowledged_V != self.last_V:
+            held.append(f"{self.unacknowledged_V:g} V, sent without acknowledgment")
+        holding = f"it may still be at {' or at '.join(held)}" if held else "it may still be on"
+        return f"heater state UNKNOWN: {holding}; switch the heater supply off at the bench and check it ({self.problem})"
+
+
 @runtime_checkable
 class HeaterOutput(Protocol):
     """The heater voltage output (the DAQ's analogue output, paper figure 7(b))."""
@@ -81,16 +114,52 @@ class HeaterOutput(Protocol):
         """The set-points this output accepts (V), after every configured limit."""
         ...
 
+    @property
+    def full_scale_V(self) -> float | None:
+        """The instrument's output range (+-V) when it, or the configuration, says; else None."""
+        ...
+
+    def check_setpoint(self, volts: float) -> float:
+        """The value the instrument would receive for ``volts`` (V), after every rule, without writing.
+
+        Raises :class:`drivers.errors.LimitError` naming the rule that
+        refuses it (not finite, range, current -- as asked or as rounded on
+        the wire -- or the instrument's full scale): what a plan is checked
+        with, point by point, before a run starts.
+        """
+        ...
+
     def set_voltage(self, volts: float) -> None:
         """Drive the heater at ``volts`` (V).
 
         Raises :class:`drivers.errors.LimitError` -- and writes nothing --
-        when the value is not finite or outside :attr:`window`.
+        when :meth:`check_setpoint` refuses it.
         """
         ...
 
     def read_voltage(self) -> float:
         """The set-point the output is actually holding, read back from the instrument (V)."""
+        ...
+
+    def verify(self) -> bool:
+        """Whether the link to the instrument was re-established since the last call.
+
+        After a reconnection the instrument is checked to be the same one
+        (a boot id, where it offers one) still holding the last set-point,
+        which is then sent again; if it restarted or lost its output,
+        :class:`drivers.errors.ContinuityError` is raised.  The caller marks
+        whatever it measured across a reconnection.  Backends without a
+        link (the in-process simulator) always answer False.
+        """
+        ...
+
+    def safe_state(self) -> SafeState:
+        """Drive the heater to 0 V and say what is known afterwards (never raises a driver fault).
+
+        The answer is ``confirmed`` only after the instrument acknowledged
+        the 0 V write and read back 0 V; what ``rig`` reports about the
+        heater rests on it.
+        """
         ...
 
 

@@ -4,7 +4,12 @@
 when every step passed.  Keys (a contract): ``driver``, ``connected``,
 ``heater_ok``, ``sensor_ok``, ``deflection_um``, ``safe_state``; also
 ``passed``, ``endpoint``, ``test_voltage_V``, ``readback_V``, ``psd_V``,
-``deflection_heated_um``, ``error`` and ``seconds``.
+``deflection_heated_um``, ``error`` and ``seconds``; and the window check:
+``window_V`` (the set-points the heater accepts, ``[min, max]``),
+``full_scale_V`` (the instrument's, when it or the configuration says;
+null otherwise) and ``window_ok`` (false when the window reaches beyond
+the full scale: a run would be refused, or refused mid-way by the
+instrument).
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ import time
 from typing import Any
 
 from .config import RigConfig, default_config
-from .errors import DriverError
+from .errors import DriverError, InstrumentBusy
 from .protocols import Clock
 from .rig import open_rig
 
@@ -42,17 +47,28 @@ def selftest(config: RigConfig | None = None, *, clock: Clock | None = None) -> 
         "deflection_heated_um": None,
         "error": None,
         "seconds": None,
+        "window_V": None,
+        "full_scale_V": None,
+        "window_ok": False,
     }
     errors: list[str] = []
     start = time.perf_counter()
     try:
         rig = open_rig(cfg, clock=clock)
+    except InstrumentBusy:
+        raise  # another run is using the instrument: not a failed check, a refusal (exit 2)
     except DriverError as exc:
         report["error"] = str(exc)
         report["seconds"] = time.perf_counter() - start
         return report
     report["connected"] = True
     report["endpoint"] = rig.description.get("endpoint")
+    window, full_scale = rig.heater.window, rig.heater.full_scale_V
+    report.update(window_V=[window.min_V, window.max_V], full_scale_V=full_scale)
+    report["window_ok"] = full_scale is None or max(abs(window.min_V), abs(window.max_V)) <= full_scale * (1 + 1e-12)
+    if not report["window_ok"]:
+        errors.append(f"window: the heater's window [{window.min_V:g}, {window.max_V:.9g}] V reaches beyond the "
+                      f"instrument's full scale of +-{full_scale:g} V: lower [heater] max_V (or max_current_mA) to fit it")
     try:
         with rig:
             try:
@@ -84,6 +100,7 @@ def selftest(config: RigConfig | None = None, *, clock: Clock | None = None) -> 
         report["safe_state"] = False
         errors.append(str(exc))
     report["error"] = "; ".join(errors) or None
-    report["passed"] = bool(report["connected"] and report["heater_ok"] and report["sensor_ok"] and report["safe_state"])
+    report["passed"] = bool(report["connected"] and report["heater_ok"] and report["sensor_ok"] and report["safe_state"]
+                            and report["window_ok"])
     report["seconds"] = time.perf_counter() - start
     return report

@@ -25,11 +25,14 @@ from collections.abc import Callable
 
 import serial
 
+from .backends import OpenedBackend
 from .channels import GuardedHeater, PSDSensor
-from .config import SerialConfig
-from .errors import DeviceError
+from .config import RigConfig, SerialCommands, SerialConfig
+from .errors import DeviceError, DriverError, SetpointRefused
+from .instrument_lock import serial_port_name
 from .limits import HeaterLimits
-from .protocols import Calibration
+from .protocols import Calibration, Clock
+from .setpoints import SetpointRules
 from .retry import Backoff, BadReply, LinkDropped, NoReply, with_retries
 
 
@@ -44,6 +47,8 @@ class SerialLink:
         self._backoff = Backoff(cfg.retries, cfg.backoff_s, cfg.backoff_max_s)
         self._eol = cfg.read_termination.encode(cfg.encoding)
         self.reconnections = 0
+        #: Times the port was opened: the first is 1, each later one a reconnection.
+        self.connections = 0
 
     # ------------------------------------------------------------ connection
     def _open_once(self) -> None:
@@ -56,6 +61,7 @@ class SerialLink:
             )
         except (serial.SerialException, OSError, ValueError) as exc:
             raise LinkDropped(str(exc) if self.cfg.url in str(exc) else f"cannot open {self.cfg.url}: {exc}") from None
+        self.connections += 1
         sock = getattr(self._port, "_socket", None)  # socket:// -- a command then a query must not wait for Nagle
         if isinstance(sock, socket.socket):
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -95,6 +101,9 @@ class SerialLink:
         except (serial.SerialException, OSError) as exc:
             self.close()
             raise LinkDropped(f"reading the reply to '{line}': {exc}") from None
+        except BaseException:  # interrupted while the reply was on its way: it must not answer the next query
+            self.close()
+            raise
         if not raw.endswith(self._eol):
             self.close()  # a late reply must not answer the next query
             raise NoReply(f"'{line}' got {'no reply' if not raw else repr(raw)} within {self.cfg.timeout_s:g} s")
@@ -150,18 +159,23 @@ class SerialLink:
             return str(exc)
 
 
+def _printed(commands: SerialCommands, volts: float) -> float:
+    """The value the instrument reads from the set command for ``volts`` (V), after printing."""
+    sent = commands.value_on_wire(volts)
+    assert sent is not None  # checked when the configuration was loaded
+    return sent
+
+
 class SerialHeater(GuardedHeater):
     """The heater set by a command line, read back by a query."""
 
-    def __init__(self, link: SerialLink, limits: HeaterLimits) -> None:
-        super().__init__(limits)
+    def __init__(self, link: SerialLink, limits: HeaterLimits, full_scale_V: float | None = None) -> None:
+        super().__init__(limits, full_scale_V)
         self.link = link
         self.commands = link.cfg.commands
 
     def _on_wire(self, volts: float) -> float:
-        sent = self.commands.value_on_wire(volts)
-        assert sent is not None  # checked when the configuration was loaded
-        return sent
+        return _printed(self.commands, volts)
 
     def _write_voltage(self, volts: float) -> None:
         self.link.command(self.commands.format_set(volts))
@@ -170,13 +184,20 @@ class SerialHeater(GuardedHeater):
         back = self.link.query_number(self.commands.query_voltage)
         if not (math.isfinite(back) and math.isclose(back, volts, rel_tol=1e-6, abs_tol=1e-6)):
             reason = self.link.last_error()
-            raise DeviceError(
+            refused = bool(reason) and not reason.startswith("0,")  # the instrument queued an error: a refusal
+            raise (SetpointRefused if refused else DeviceError)(
                 f"{self.link.endpoint}: heater set to {volts:g} V but it reports {back:g} V"
                 + (f"; instrument error: {reason}" if reason else "")
             )
 
     def _read_voltage(self) -> float:
         return self.link.query_number(self.commands.query_voltage)
+
+    def _write_reads_back(self) -> bool:
+        return self.link.cfg.verify_set
+
+    def _link_epoch(self) -> int:
+        return self.link.connections
 
 
 class SerialPSD(PSDSensor):
@@ -188,3 +209,31 @@ class SerialPSD(PSDSensor):
 
     def _read_psd(self) -> float:
         return self.link.query_number(self.link.cfg.commands.measure_psd)
+
+
+# ---------------------------------------------------------------- the backend (see drivers.backends)
+def open_backend(cfg: RigConfig, clock: Clock, device: object = None) -> OpenedBackend:
+    """The ``serial`` driver: open the port of ``[serial]`` (with the configured retries) and ask who it is."""
+    sc = cfg.serial
+    assert sc is not None
+    link = SerialLink(sc)
+    link.connect()
+    sens = cfg.sensor
+    heater = SerialHeater(link, cfg.heater.limits(), cfg.heater.full_scale_V)
+    sensor = SerialPSD(link, sens.calibration(), sens.saturation_V, sens.retries)
+    try:
+        identity = link.query(sc.commands.identify)
+    except DriverError:
+        identity = ""
+    return OpenedBackend(heater, sensor, [link.close], {"endpoint": link.endpoint, "identity": identity})
+
+
+def setpoint_rules(cfg: RigConfig) -> SetpointRules:
+    assert cfg.serial is not None
+    commands = cfg.serial.commands
+    return SetpointRules(cfg.heater.limits(), lambda volts: _printed(commands, volts), cfg.heater.full_scale_V)
+
+
+def instrument_address(cfg: RigConfig) -> str | None:
+    assert cfg.serial is not None
+    return f"serial {serial_port_name(cfg.serial.url)}"

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import click
 
-from drivers.errors import CodecError, ConfigError, DriverError, LimitError, ServeError
+from drivers.errors import CodecError, ConfigError, DriverError, InstrumentBusy, LimitError, ServeError
 from identify.errors import IdentifyError
 from rig.acquisition.errors import AcquisitionError
-from sessions.errors import DataFileError
+from sessions.errors import DataFileError, StorageError
 
 #: Exceptions meaning "what the user gave cannot be used" (exit 2).
 USER_ERRORS: tuple[type[BaseException], ...] = (
@@ -29,10 +29,12 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
     CodecError,
     ServeError,
     AcquisitionError,
+    InstrumentBusy,
 )
 
-#: Exceptions meaning "the rig failed while being driven" (exit 3).
-RIG_FAULTS: tuple[type[BaseException], ...] = (DriverError,)
+#: Exceptions meaning "the rig failed while being driven" (exit 3): the instrument, its link, or the
+#: storage the session is written to (disk full, I/O error, the file removed underneath).
+RIG_FAULTS: tuple[type[BaseException], ...] = (DriverError, StorageError)
 
 #: Exit code for bad input (as click uses for usage errors).
 EXIT_BAD_INPUT = 2

@@ -10,7 +10,7 @@
 """
 
 from .csvtrace import HEADER, Trace, read_trace, write_trace
-from .errors import DataFileError
+from .errors import DataFileError, StorageError
 from .models import ModelRecord
 from .reader import Session, SessionFollower, is_hdf5, read_session
 from .records import Event, ExcitationRecord, Quantities
@@ -31,6 +31,7 @@ __all__ = [
     "SessionFollower",
     "SessionWriter",
     "Status",
+    "StorageError",
     "Trace",
     "add_model",
     "is_hdf5",

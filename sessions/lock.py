@@ -69,6 +69,11 @@ class WriterLock:
         self._fd = fd
         return self
 
+    @property
+    def fd(self) -> int | None:
+        """The descriptor of the locked file (None when not held)."""
+        return self._fd
+
     def still_names_the_file(self) -> bool:
         """Whether the path still refers to the locked file (not replaced meanwhile)."""
         try:

@@ -33,6 +33,7 @@ import numpy as np
 from identify import IdentifyError, PreisachModel
 from identify.fit import FitReport
 
+from .checksums import create_checked, read_checked
 from .errors import DataFileError
 from .schema import software_version
 
@@ -108,9 +109,9 @@ def write_model_group(parent: h5py.Group, record: ModelRecord) -> h5py.Group:
     """Create ``parent/<name>`` holding ``record`` (the name must be free)."""
     d = record.model.to_dict()
     g = parent.create_group(record.name)
-    g.create_dataset("walls", data=np.asarray(d["walls"], dtype=float))
-    g.create_dataset("density", data=np.asarray(d["density"], dtype=float))
-    g.create_dataset("rows", data=record.rows)
+    create_checked(g, "walls", np.asarray(d["walls"], dtype=float))
+    create_checked(g, "density", np.asarray(d["density"], dtype=float))
+    create_checked(g, "rows", record.rows)
     g.attrs["model_format"] = d["format"]
     for key in _MODEL_KEYS:
         g.attrs[key] = d[key]
@@ -136,8 +137,8 @@ def read_model_group(group: h5py.Group) -> ModelRecord:
     try:
         data = {key: a[key] for key in _MODEL_KEYS}
         data["format"] = int(a["model_format"])
-        data["walls"] = group["walls"][()]
-        data["density"] = group["density"][()]
+        data["walls"] = read_checked(group["walls"])
+        data["density"] = read_checked(group["density"])
         if "metadata" in a:
             data["metadata"] = json.loads(a["metadata"])
         if "effects" in a:
@@ -148,7 +149,7 @@ def read_model_group(group: h5py.Group) -> ModelRecord:
             name=name,
             method=str(a["method"]),
             model=model,
-            rows=group["rows"][()],
+            rows=read_checked(group["rows"]),
             thermal_term=bool(a["thermal_term"]),
             seed=int(a["seed"]) if "seed" in a else None,
             settings=json.loads(a["settings"]),
@@ -156,6 +157,8 @@ def read_model_group(group: h5py.Group) -> ModelRecord:
             created_at=str(a["created_at"]),
             software_version=str(a["software_version"]),
         )
+    except DataFileError:
+        raise
     except KeyError as exc:
         raise DataFileError(f"model {name!r} is incomplete: missing {exc.args[0]!r}") from None
     except (IdentifyError, ValueError, TypeError) as exc:

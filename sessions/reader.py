@@ -21,6 +21,7 @@ import numpy as np
 
 from identify import Grid
 
+from .checksums import read_checked
 from .errors import DataFileError
 from .lock import held_by_other
 from .models import ModelRecord, read_model_group
@@ -202,8 +203,8 @@ def read_excitation(group: h5py.Group) -> ExcitationRecord:
 
     return ExcitationRecord(
         kind=_text(a["kind"]),
-        inputs=_dataset(group, "inputs")[()],
-        measure=_dataset(group, "measure")[()],
+        inputs=read_checked(_dataset(group, "inputs")),
+        measure=read_checked(_dataset(group, "measure")),
         levels=optional("levels", int),
         v_min=optional("v_min", float),
         v_max=optional("v_max", float),
@@ -211,7 +212,7 @@ def read_excitation(group: h5py.Group) -> ExcitationRecord:
         seed=optional("seed", int),
         dwell=_json_attr(a, "dwell") if "dwell" in a else {},
         extra=_json_attr(a, "extra") if "extra" in a else {},
-        curves=_dataset(group, "curve")[()] if "curve" in group else None,
+        curves=read_checked(_dataset(group, "curve")) if "curve" in group else None,
     )
 
 
@@ -220,7 +221,7 @@ def read_calibration(f: h5py.File) -> CalibrationRecord | None:
     if "calibration" not in f:
         return None
     d = _dataset(f, "calibration", CALIBRATION_DTYPE)
-    rows = d[()]
+    rows = read_checked(d)
     drift = _json_attr(d.attrs, "drift_correction") if "drift_correction" in d.attrs else None
     return CalibrationRecord(*(rows[name].copy() for name in CALIBRATION_DTYPE.names), drift_correction=drift)
 
@@ -279,7 +280,7 @@ def check_header(path: Path, f: h5py.File) -> int:
 def _read(path: Path, f: h5py.File) -> Session:
     version = check_header(path, f)
     a = f.attrs
-    raw = _dataset(f, "samples", SAMPLE_DTYPE)[()]
+    raw = read_checked(_dataset(f, "samples", SAMPLE_DTYPE))
     samples = sample_columns(raw, valid_rows(raw))
     excitation = read_excitation(f["excitation"])
     if samples.size > excitation.n_points:

@@ -28,12 +28,13 @@ from typing import Callable
 import h5py
 import numpy as np
 
-from .errors import DataFileError
+from .errors import DataFileError, StorageError
 from .lock import WriterLock
 from .log import append_event
 from .models import ModelRecord, write_model_group
 from .reader import Session, open_hdf5, read_session
 from .schema import LIBVER
+from .storage import abandon, storage_reason
 
 #: ``edit(copy, original)``: change the open copy; ``original`` is the session as read.
 Edit = Callable[[h5py.File, Session], None]
@@ -100,23 +101,21 @@ def rewrite_session(
             check(before)
         tmp.unlink(missing_ok=True)
         try:
-            with open_hdf5(path) as src, h5py.File(tmp, "w-", libver=LIBVER) as dst:
-                copy_contents(src, dst)
-                edit(dst, before)
-            shutil.copymode(path, tmp)
-        except OSError as exc:
-            raise DataFileError(f"{path}: could not write the new copy ({exc}); the session was not modified") from None
-        after = read_session(tmp)
-        if (
-            after.samples.tobytes() != before.samples.tobytes()
-            or after.events[: len(before.events)] != before.events
-            or _calibration_bytes(after) != _calibration_bytes(before)
-        ):
-            raise DataFileError(f"{path}: the rewritten copy lost samples or events; the session was not modified")
-        fsync_file(tmp)
-        if keep_lock:
-            new_lock = WriterLock(tmp).acquire()
-        os.replace(tmp, path)
+            _write_copy(path, tmp, lambda dst: edit(dst, before))
+            after = read_session(tmp)
+            if (
+                after.samples.tobytes() != before.samples.tobytes()
+                or after.events[: len(before.events)] != before.events
+                or _calibration_bytes(after) != _calibration_bytes(before)
+            ):
+                raise DataFileError(f"{path}: the rewritten copy lost samples or events; the session was not modified")
+            fsync_file(tmp)
+            if keep_lock:
+                new_lock = WriterLock(tmp).acquire()
+            os.replace(tmp, path)
+        except (OSError, RuntimeError) as exc:
+            raise StorageError(f"{path}: could not write a new copy of the session beside it ({storage_reason(exc)}); "
+                               "the session was not modified") from None
         fsync_directory(path.parent)
     except BaseException:
         if new_lock is not None:
@@ -128,6 +127,21 @@ def rewrite_session(
     if new_lock is not None:
         new_lock.path = path
     return new_lock
+
+
+def _write_copy(path: Path, tmp: Path, edit: Callable[[h5py.File], None]) -> None:
+    """Copy the session at ``path`` into the new file ``tmp`` and apply ``edit`` to it.  A copy whose
+    writes fail (a full disk) is abandoned so that HDF5 cannot crash later re-trying to close it."""
+    with open_hdf5(path) as src:
+        dst = h5py.File(tmp, "w-", libver=LIBVER)
+        try:
+            copy_contents(src, dst)
+            edit(dst)
+            dst.close()
+        except BaseException:
+            abandon(dst.id.get_vfd_handle() if dst.id.valid else None, dst.close)
+            raise
+    shutil.copymode(path, tmp)
 
 
 def _calibration_bytes(session: Session) -> bytes | None:

@@ -121,6 +121,7 @@ class SampleFlag(enum.IntFlag):
     IMPORTED = 64  # imported from a file that did not record dwell or settling
     CALIBRATION = 128  # the calibration field of a FORC protocol; its measurement is in /calibration
     SATURATION = 256  # the input is held at the saturation field (a FORC protocol's HSat)
+    RECONNECTED = 512  # the link to the instrument dropped and came back while this point was applied or measured
 
 
 #: Default input and output quantities (the VO2 rig).

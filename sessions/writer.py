@@ -18,13 +18,27 @@ two syncs is readable.
 A session whose writer died keeps status ``running`` and the "open for
 writing" mark of HDF5; it reads fine, and :meth:`SessionWriter.reopen`
 continues it in a fresh copy (see :mod:`sessions.rewrite`).
+
+Storage faults.  A write that fails (disk full, I/O error) or a session file
+removed or replaced underneath the writer raises :class:`StorageError`
+naming the cause; the row in flight is not counted.  The writer holds a
+small :class:`~sessions.storage.Reserve` beside the file and frees it at
+the first failure, so that on a full disk the final status is still logged
+(once) and the file closed properly; when even that fails the file is
+abandoned without crashing (:func:`~sessions.storage.abandon`) and keeps
+everything flushed before the fault.  A session removed during the run is
+written back to its path from the still-open file when the writer closes.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import shutil
+import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -32,13 +46,15 @@ from typing import Any
 import h5py
 import numpy as np
 
-from .errors import DataFileError
+from .checksums import create_checked
+from .errors import DataFileError, StorageError
 from .guard import deferred_interrupt
 from .lock import WriterLock
 from .log import append_event
 from .reader import sample_columns
 from .records import CalibrationRecord, ExcitationRecord, Quantities
 from .rewrite import rewrite_session
+from .storage import Reserve, abandon, check_free_space, storage_reason
 from .schema import (
     EVENT_DTYPE,
     FORMAT_NAME,
@@ -91,10 +107,10 @@ def write_layout(
         g.attrs["seed"] = int(excitation.seed)
     g.attrs["dwell"] = _json(excitation.dwell)
     g.attrs["extra"] = _json(excitation.extra)
-    g.create_dataset("inputs", data=excitation.inputs)
-    g.create_dataset("measure", data=excitation.measure)
+    create_checked(g, "inputs", excitation.inputs)
+    create_checked(g, "measure", excitation.measure)
     if excitation.curves is not None:
-        g.create_dataset("curve", data=excitation.curves.astype(np.int32))
+        create_checked(g, "curve", excitation.curves.astype(np.int32))
     if calibration is not None:
         write_calibration(f, calibration)
     f.create_dataset(
@@ -125,10 +141,12 @@ class SessionWriter:
     appended sample kept.
     """
 
-    def __init__(self, path: Path, f: h5py.File, lock: WriterLock, fsync_interval_s: float | None) -> None:
+    def __init__(self, path: Path, f: h5py.File, lock: WriterLock, fsync_interval_s: float | None,
+                 reserve: Reserve | None = None) -> None:
         self.path = path
         self._file = f
         self._lock = lock
+        self._reserve = reserve
         self._samples = f["samples"]
         self._log = f["log"]
         self._count = int(self._samples.shape[0])
@@ -138,7 +156,14 @@ class SessionWriter:
         self._fsync_interval = fsync_interval_s
         self._fd = f.id.get_vfd_handle()
         self._last_sync = time.monotonic()
-        f.swmr_mode = True  # from here on: only grow /samples and /log
+        #: The storage fault that stopped this writer (None: healthy).
+        self.fault: StorageError | None = None
+        self._removed = False
+        self._finished = False
+        #: Where a session removed during the run was written back to (None: it was not removed).
+        self.recovered_to: Path | None = None
+        with self._storage_errors("switching to single-writer/multiple-reader mode"):
+            f.swmr_mode = True  # from here on: only grow /samples and /log
 
     # ------------------------------------------------------------ opening
     @classmethod
@@ -163,6 +188,13 @@ class SessionWriter:
         ``None``: only on close).
         """
         path = Path(path)
+        if path.exists():
+            raise DataFileError(f"{path}: already exists; a session is never overwritten")
+        try:
+            check_free_space(path, excitation.n_points)
+        except OSError as exc:
+            raise StorageError(f"{path}: cannot create the session ({storage_reason(exc)}); nothing was "
+                               "recorded") from None
         try:
             f = h5py.File(path, "w-", libver=LIBVER)
         except FileExistsError:
@@ -174,17 +206,24 @@ class SessionWriter:
         try:
             lock = WriterLock(path).acquire()
         except BaseException:
-            f.close()
+            abandon(f.id.get_vfd_handle(), f.close)
             path.unlink(missing_ok=True)
             raise
+        reserve = Reserve(path)
         try:
-            write_layout(f, excitation, quantities or Quantities(), operator, notes, rig_config, driver,
-                         calibration)
-            writer = cls(path, f, lock, fsync_interval_s)
+            try:
+                reserve.take()
+                write_layout(f, excitation, quantities or Quantities(), operator, notes, rig_config, driver,
+                             calibration)
+            except (OSError, RuntimeError) as exc:
+                raise StorageError(f"{path}: cannot create the session ({storage_reason(exc)}); nothing was "
+                                   "recorded") from None
+            writer = cls(path, f, lock, fsync_interval_s, reserve)
             writer.log("created", f"{excitation.kind} excitation of {excitation.n_points} points")
         except BaseException:
-            f.close()
+            abandon(f.id.get_vfd_handle(), f.close)
             lock.release()
+            reserve.free()
             path.unlink(missing_ok=True)
             raise
         return writer
@@ -211,13 +250,32 @@ class SessionWriter:
         def trim(dst: h5py.File, session) -> None:
             dst["samples"].resize((session.n_samples,))
 
-        lock = rewrite_session(path, trim, check=check, keep_lock=True)
+        reserve = Reserve(path)
+        try:  # the room to finish a run, and then for a copy of the session, before anything is touched
+            check_free_space(path, 0, reserve.size + (path.stat().st_size if path.exists() else 0))
+            reserve.take()
+        except OSError as exc:
+            reserve.free()
+            raise StorageError(f"{path}: cannot reopen the session for writing ({storage_reason(exc)}); "
+                               "it was not modified") from None
         try:
-            f = h5py.File(path, "r+", libver=LIBVER)
+            lock = rewrite_session(path, trim, check=check, keep_lock=True)
         except BaseException:
-            lock.release()
+            reserve.free()
             raise
-        writer = cls(path, f, lock, fsync_interval_s)
+        f = None
+        try:
+            try:
+                f = h5py.File(path, "r+", libver=LIBVER)
+            except (OSError, RuntimeError) as exc:
+                raise StorageError(f"{path}: cannot reopen the session for writing ({storage_reason(exc)})") from None
+            writer = cls(path, f, lock, fsync_interval_s, reserve)
+        except BaseException:
+            if f is not None:
+                abandon(f.id.get_vfd_handle(), f.close)
+            lock.release()
+            reserve.free()
+            raise
         writer.log("reopened", reason or f"continuing at point {writer.count}")
         return writer
 
@@ -267,12 +325,14 @@ class SessionWriter:
         r["settled"] = settled
         r["measured"] = measured
         r["flags"] = int(flags)
-        with deferred_interrupt():
-            self._samples.resize((k + 1,))
-            self._samples[k : k + 1] = r
-            self._samples.flush()
-            self._count = k + 1
-        self._maybe_sync()
+        with self._storage_errors(f"recording point {k}", row=k):
+            self._check_file()
+            with deferred_interrupt():
+                self._samples.resize((k + 1,))
+                self._samples[k : k + 1] = r
+                self._samples.flush()
+                self._count = k + 1
+            self._maybe_sync()
         return k
 
     def extend(self, rows: np.ndarray) -> None:
@@ -289,41 +349,63 @@ class SessionWriter:
             raise DataFileError(f"{self.path}: {k + n} samples exceed the {self._planned} planned points")
         rows["index"] = np.arange(k, k + n)
         rows["output"] = np.where(rows["measured"], rows["output"], np.nan)
-        with deferred_interrupt():
-            self._samples.resize((k + n,))
-            self._samples[k : k + n] = rows
-            self._samples.flush()
-            self._count = k + n
-        self._maybe_sync()
+        with self._storage_errors(f"recording points {k}..{k + n - 1}", row=k):
+            with deferred_interrupt():
+                self._samples.resize((k + n,))
+                self._samples[k : k + n] = rows
+                self._samples.flush()
+                self._count = k + n
+            self._maybe_sync()
 
     def log(self, event: str, message: str = "", status: Status | None = None) -> None:
         """Append an event to the session log (optionally changing the status)."""
         self._require_open()
         if status is not None:
             self._status = Status(status)
-        with deferred_interrupt():
-            append_event(self._log, self._status, event, message, self._count)
-        self._maybe_sync()
+        with self._storage_errors(f"logging '{event}'"):
+            with deferred_interrupt():
+                append_event(self._log, self._status, event, message, self._count)
+            self._maybe_sync()
 
     def finish(self, status: Status | str = Status.COMPLETE, message: str = "") -> None:
-        """Set the final status (complete, aborted or failed) and close the file."""
+        """Set the final status (complete, aborted or failed) and close the file.
+
+        The final status is logged once, however often this is called.  After
+        a storage fault it is a best effort that never raises: the file is
+        closed, or abandoned with what was flushed before the fault.
+        """
         status = Status(status)
         if not status.final:
             raise ValueError("finish() needs a final status: complete, aborted or failed")
-        self.log(status.value, message, status)
-        self.close()
+        if self.closed:
+            return
+        healthy = self.fault is None
+        try:
+            if not self._finished:
+                self.log(status.value, message, status)
+                self._finished = True
+            self.close()
+        except StorageError:
+            self._abandon()
+            if healthy:  # the fault happened here: the caller must hear of it
+                raise
 
     def close(self) -> None:
         """Flush, sync and close the file and release the lock (the status is left as is)."""
         if self.closed:
             return
         try:
-            self._file.flush()
-            os.fsync(self._fd)
-        finally:
-            self._file.close()
-            self._lock.release()
-            self._lock = None
+            with self._storage_errors("closing the file"):
+                self._file.flush()
+                os.fsync(self._fd)
+                self._file.close()
+        except StorageError:
+            try:  # the reserve is free now: room for HDF5 to finish closing
+                self._file.close()
+            except Exception:
+                self._abandon()
+                raise
+        self._release()
 
     # ------------------------------------------------------------ internals
     def _require_open(self) -> None:
@@ -338,6 +420,59 @@ class SessionWriter:
             os.fsync(self._fd)
             self._last_sync = now
 
+    def _check_file(self) -> None:
+        """Raise if the session file was removed, moved or replaced since it was opened."""
+        if self._removed or self._lock.still_names_the_file():
+            return
+        if os.fstat(self._fd).st_nlink == 0:
+            self._removed = True
+            raise StorageError(f"{self.path}: the session file was removed during the run; recording stopped "
+                               "(the samples are written back to it when the run ends)")
+        raise StorageError(f"{self.path}: the session file was moved or replaced during the run; recording stopped")
+
+    @contextmanager
+    def _storage_errors(self, what: str, row: int | None = None) -> Iterator[None]:
+        """Turn a failed write into :class:`StorageError`, once; free the reserve; blank row ``row``."""
+        try:
+            yield
+        except StorageError as exc:
+            self._fail(exc, row)
+            raise
+        except (OSError, RuntimeError) as exc:
+            err = StorageError(f"{self.path}: cannot write the session ({storage_reason(exc)}) while {what}; "
+                               "every sample recorded before is kept")
+            self._fail(err, row)
+            raise err from None
+
+    def _fail(self, err: StorageError, row: int | None) -> None:
+        if self.fault is None:
+            self.fault = err
+        if self._reserve is not None:
+            self._reserve.free()  # room to log the final status and close
+        if row is not None:
+            try:  # the row in flight must not reach the file later, when HDF5 flushes its cache
+                if self._samples.shape[0] > row:
+                    self._samples[row : row + 1] = SAMPLE_FILL
+            except Exception:
+                pass
+
+    def _release(self) -> None:
+        """After the file is closed: write a removed session back, release the lock and the reserve."""
+        if self._removed and self._lock is not None:
+            self.recovered_to = _write_back(self._lock, self.path)
+        if self._lock is not None:
+            self._lock.release()
+            self._lock = None
+        if self._reserve is not None:
+            self._reserve.free()
+
+    def _abandon(self) -> None:
+        """Close after a failure, keeping whatever reached the file (never crashes, never raises)."""
+        if self._lock is None:
+            return
+        abandon(self._fd, self._file.close)
+        self._release()
+
     def __enter__(self) -> "SessionWriter":
         return self
 
@@ -348,6 +483,8 @@ class SessionWriter:
             if exc_type is None:
                 if self._status is Status.RUNNING:
                     self.finish(Status.COMPLETE)
+                else:
+                    self.close()
             elif issubclass(exc_type, KeyboardInterrupt):
                 self.finish(Status.ABORTED, "interrupted (Ctrl-C)")
             else:
@@ -356,15 +493,27 @@ class SessionWriter:
             self._abandon()
             if exc_type is None:
                 raise  # otherwise the original exception is the one to report
-        else:
-            self.close()
 
-    def _abandon(self) -> None:
-        """Close after a failure, keeping whatever reached the file."""
+
+
+def _write_back(lock: WriterLock, path: Path) -> Path | None:
+    """Copy a session file that was removed while open (``lock`` still holds it) back to ``path`` -- or,
+    when that name is taken or its directory is gone, to a ``.recovered`` file beside it or in the
+    system's temporary directory.  Returns where it went (None: nowhere could take it)."""
+    candidates = [path, path.with_name(f"{path.name}.recovered"),
+                  Path(tempfile.gettempdir()) / f"{path.name}.recovered-{os.getpid()}"]
+    for target in candidates:
         try:
-            self._file.close()
-        except Exception:
-            pass
-        if self._lock is not None:
-            self._lock.release()
-            self._lock = None
+            out = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o644)
+        except OSError:
+            continue
+        try:
+            with os.fdopen(os.dup(lock.fd), "rb") as src, os.fdopen(out, "wb") as dst:
+                src.seek(0)
+                shutil.copyfileobj(src, dst)
+                dst.flush()
+                os.fsync(dst.fileno())
+            return target
+        except OSError:
+            target.unlink(missing_ok=True)
+    return None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,12 @@ def known_model(levels: int, v_min: float = 0.0, v_max: float = 5.0, seed: int =
     grid = Grid(levels, v_min, v_max)
     rng = np.random.default_rng(seed)
     return PreisachModel(grid, rng.uniform(0.5, 3.0, grid.n_cells), mu0=mu0, c_d=c_d)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def instrument_locks(tmp_path_factory):
+    """The one-run-per-instrument locks of this test session (and of its child processes) live here."""
+    os.environ["RIG_LOCK_DIR"] = str(tmp_path_factory.mktemp("instrument-locks"))
 
 
 @pytest.fixture

@@ -177,7 +177,9 @@ def test_a_link_that_never_comes_back_raises_and_says_the_heater_state_is_unknow
                 bench.call(bench.stop_endpoint("modbus"))
                 rig.sensor.read()
         notes = getattr(info.value, "__notes__", [])
-        assert any("could not return the heater to 0 V" in n for n in notes)
+        assert any("heater state UNKNOWN: it may still be at 2 V" in n for n in notes), notes
+        assert not rig.heater_state.confirmed and not rig.heater_state.acknowledged
+        assert rig.heater_state.last_V == 2.0 and bench.device.applied_voltage == 2.0
 
 
 def test_nothing_listening_fails_quickly_and_cleanly():
@@ -224,3 +226,35 @@ def test_ctrl_c_in_another_process_returns_the_heater_to_zero():
         assert proc.returncode != 0 and "KeyboardInterrupt" in proc.stderr.read()
         assert bench.journal.volts_received() == [0.0, 2.0, 0.0]
         assert bench.device.applied_voltage == 0.0
+
+
+def test_after_a_reconnection_the_heater_checks_the_instrument_and_sends_its_setpoint_again():
+    from drivers import ContinuityError
+    from drivers.sim import SimParams, SimVO2
+    from drivers.sim.bench import SimBench
+
+    boot = "[modbus.setpoint]\naddress = 0\n[modbus.psd]\naddress = 0\n[modbus.boot_id]\naddress = 2\ntype = 'uint32'\n"
+    with served(modbus=True, **EXACT) as bench:
+        port = int(bench.endpoints["modbus"].rsplit(":", 1)[1])
+        with open_rig(config(modbus_toml(bench, retries=6, extra=boot))) as rig:
+            rig.heater.set_voltage(2.0)
+            assert rig.heater.verify() is False  # no reconnection: nothing on the wire
+            n = len(bench.journal.setpoints)
+            bench.call(bench.stop_endpoint("modbus"))  # the same device behind a new server: a link blip
+            bench.call(bench.start_modbus("127.0.0.1", port))
+            rig.sensor.read()  # reconnects
+            assert rig.heater.verify() is True
+            assert bench.journal.volts_received()[n:] == [2.0]  # the set-point, sent again
+            assert rig.heater.verify() is False
+            bench.call(bench.stop_endpoint("modbus"))
+            fresh = SimBench(SimVO2(SimParams(**EXACT), bench.device.clock), bench.modbus_cfg).start_in_thread()
+            try:
+                fresh.call(fresh.start_modbus("127.0.0.1", port))  # a restarted instrument on the same port
+                fresh.device.apply_voltage(2.0)  # even holding the same output, it is not the same instrument
+                rig.sensor.read()
+                with pytest.raises(ContinuityError, match="restarted.*boot id"):
+                    rig.heater.verify()
+            finally:
+                rig.close()
+                fresh.close()
+            assert rig.heater_state.confirmed and fresh.device.applied_voltage == 0.0

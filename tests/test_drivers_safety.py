@@ -209,3 +209,43 @@ def test_opening_a_rig_puts_the_heater_at_zero():
         assert rig.device is device
         assert device.applied_voltage == 0.0
     assert [v for _, v in device.setpoints] == [3.0, 0.0, 0.0]
+
+
+class FlakyHeater(RecordingHeater):
+    """A heater whose instrument stops acknowledging writes (``dead``) or reads back ``stuck_at``."""
+
+    def __init__(self, limits):
+        super().__init__(limits)
+        self.dead = False
+        self.stuck_at = None
+
+    def _write_voltage(self, volts):
+        from drivers import ConnectionFailed
+
+        if self.dead:
+            raise ConnectionFailed("refused or unreachable")
+        super()._write_voltage(volts)
+
+    def _read_voltage(self):
+        return self.stuck_at if self.stuck_at is not None else super()._read_voltage()
+
+
+def test_the_safe_state_is_confirmed_only_when_0V_is_acknowledged_and_read_back():
+    heater = FlakyHeater(HeaterLimits.build(0.0, 6.0))
+    heater.set_voltage(3.5)
+    state = heater.safe_state()
+    assert state.confirmed and state.acknowledged and state.readback_V == 0.0 and heater.wire == [3.5, 0.0]
+    assert state.describe().startswith("heater at 0 V")
+    assert heater.safe_state() is state and heater.wire == [3.5, 0.0]  # nothing written since: it stands
+    heater.set_voltage(4.25)
+    heater.dead = True
+    with pytest.raises(Exception):
+        heater.set_voltage(5.0)  # sent, never acknowledged
+    state = heater.safe_state()
+    assert not state.confirmed and not state.acknowledged and (state.last_V, state.unacknowledged_V) == (4.25, 5.0)
+    text = state.describe()
+    assert "heater at 0 V" not in text and "UNKNOWN" in text and "4.25 V" in text and "5 V" in text
+    heater.dead, heater.stuck_at = False, 4.25  # acknowledges 0 V but the output stays on
+    state = heater.safe_state()
+    assert not state.confirmed and state.acknowledged and state.readback_V == 4.25
+    assert "reads back 4.25 V" in state.describe()

@@ -148,3 +148,40 @@ def test_a_torn_copy_of_a_live_session_fails_fast(tmp_path):
     with pytest.raises(DataFileError, match="corrupt|truncated"):
         read_session(path)
     assert time.monotonic() - start < 10
+
+
+def documented_recipe() -> str:
+    """The Python block docs/sessions.md gives for reading a session whose writer died."""
+    text = (Path(__file__).parents[1] / "docs" / "sessions.md").read_text(encoding="utf-8")
+    marker = "<!-- recipe: crashed session -->"
+    assert marker in text, "docs/sessions.md does not say how to open a crashed session with other tools"
+    block = text.split(marker, 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    return block
+
+
+def test_the_documented_way_opens_a_crashed_session_with_plain_h5py_and_hdf5_tools(tmp_path, capsys):
+    import shutil
+
+    import h5py
+
+    path = tmp_path / "crashed.h5"
+    child = start_child("write", path, 20_000, 0.0)
+    reported = read_reported(child, 40)
+    kill(child)
+    before = digest(path)
+    with pytest.raises(OSError, match="already open for write"):
+        h5py.File(path, "r")  # the plain way: refused, as the docs say
+    exec(documented_recipe(), {"path": path})
+    out = capsys.readouterr().out
+    n = int(out.split()[0])
+    assert n >= len(reported) and out.strip() == f"{n} samples, status running"
+    assert digest(path) == before  # nothing was written
+    if shutil.which("h5clear") and shutil.which("h5dump"):
+        copy = tmp_path / "copy.h5"
+        shutil.copy2(path, copy)
+        assert subprocess.run(["h5clear", "-s", str(copy)], capture_output=True, timeout=60).returncode == 0
+        dump = subprocess.run(["h5dump", "-H", str(copy)], capture_output=True, text=True, timeout=60)
+        assert dump.returncode == 0 and "samples" in dump.stdout
+        with h5py.File(copy, "r") as f:
+            assert f["samples"].shape[0] >= n
+        assert digest(path) == before

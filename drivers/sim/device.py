@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import secrets
 import threading
 from collections import deque
 from dataclasses import dataclass, field
@@ -40,7 +41,7 @@ from identify.memory import CellStates
 
 from ..clock import VirtualClock
 from ..configschema import as_dict
-from ..errors import DeviceError
+from ..errors import SetpointRefused
 from ..protocols import Clock
 from .effects import Effect, Moment, make_effects
 from .faults import FaultPlan
@@ -48,7 +49,7 @@ from .params import SimParams
 from .transition import transition_density
 
 
-class DeviceRefused(DeviceError):
+class DeviceRefused(SetpointRefused):
     """The simulated hardware refuses a set-point (not finite, or beyond its full scale)."""
 
 
@@ -104,8 +105,11 @@ class SimVO2:
 
     # ------------------------------------------------------------ lifecycle
     def reset(self) -> None:
-        """Power-cycle: ambient temperature, 0 V, negative saturation, noise re-seeded."""
+        """Power-cycle: ambient temperature, 0 V, negative saturation, noise re-seeded, a new :attr:`boot_id`."""
         with self._lock:
+            #: A random 32-bit number drawn at every power-up: a client that reads a different one after
+            #: reconnecting knows the instrument restarted (and lost its output and the beam's memory state).
+            self.boot_id = secrets.randbits(32)
             self._rng = np.random.default_rng(self.params.seed)
             self._t = self.clock.now()
             self._v = 0.0

@@ -9,7 +9,10 @@ Built on pymodbus 3.16's ``SimDevice``/``SimData`` datastore, whose
   value is refused with exception 3 (illegal data value) and not applied;
 * a read of the set-point returns what the device is applying; a read of
   the PSD register triggers one PSD reading (a NaN that the register type
-  cannot hold is answered with exception 4, device failure);
+  cannot hold is answered with exception 4, device failure); the boot-id
+  register (when the map has one) holds the device's
+  :attr:`~drivers.sim.SimVO2.boot_id`, new at every power-up, and the
+  full-scale register its ``max_output_V``;
 * every other address is invalid (exception 2); another unit id gets
   exception 11, as from a gateway.
 
@@ -28,7 +31,7 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 
 from ..config import ModbusConfig
 from ..errors import CodecError
-from ..modbus_registers import RegisterPoint
+from ..modbus_registers import INTEGER_RANGES, RegisterPoint
 from ..modbus_errors import quiet_pymodbus
 from .device import DeviceRefused, SimVO2
 from .faults import FaultPlan
@@ -43,7 +46,16 @@ _TABLE_CODES = {"holding": frozenset({3, 6, 16, 22, 23}), "input": frozenset({4}
 def _block(points: list[RegisterPoint]) -> list[SimData]:
     if not points:
         return [SimData(0, datatype=DataType.INVALID)]
-    return [SimData(p.address, count=p.count, values=0, datatype=DataType.REGISTERS) for p in points]
+    return [SimData(p.address, count=p.count, values=0, datatype=DataType.REGISTERS)
+            for p in sorted(points, key=lambda p: p.address)]
+
+
+def boot_words(point: RegisterPoint, boot_id: int) -> list[int]:
+    """The registers of ``point`` holding a 32-bit boot id, folded into what its type can carry."""
+    if point.is_integer:
+        lo, hi = INTEGER_RANGES[point.type]
+        return point.encode((lo + boot_id % (hi - lo + 1)) / point.scale)
+    return point.encode(boot_id / point.scale)
 
 
 async def _no_such_unit(*_: object) -> ExcCodes:
@@ -63,7 +75,7 @@ class SimModbusHandler:
     def simdevices(self) -> list[SimDevice]:
         """The pymodbus device descriptions: our unit (separate holding and input tables) and,
         as a gateway would, "target device failed to respond" (exception 11) for any other unit id."""
-        points = [self.cfg.setpoint, self.cfg.psd]
+        points = list(self.cfg.points().values())
 
         def tables() -> tuple[list[SimData], ...]:
             bits = SimData(0, count=16, values=False, datatype=DataType.BITS)
@@ -104,6 +116,12 @@ class SimModbusHandler:
             except CodecError:
                 return ExcCodes.DEVICE_FAILURE
             registers[psd.address - start : psd.address - start + psd.count] = words
+        boot = self.cfg.boot_id
+        if boot is not None and self._touches(boot, func_code, address, count):
+            registers[boot.address - start : boot.address - start + boot.count] = boot_words(boot, self.device.boot_id)
+        fs = self.cfg.full_scale
+        if fs is not None and self._touches(fs, func_code, address, count):
+            registers[fs.address - start : fs.address - start + fs.count] = fs.encode(self.device.params.max_output_V)
         return None
 
     def _write_setpoint(self, words: list[int]) -> ExcCodes | None:

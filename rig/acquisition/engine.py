@@ -13,7 +13,14 @@ of the plan:
    :mod:`identify.acquisition_plan`), a transit elsewhere; a pause request
    during the wait pauses, and the wait starts again on resume;
 4. a measured point averages ``readings`` sensor readings;
-5. the row is appended to the session and flushed before the next point
+5. the link is checked (:meth:`~drivers.protocols.HeaterOutput.verify`):
+   if it was re-established meanwhile, the instrument was found to be the
+   same one still holding the set-point (which was sent again), and the
+   row is flagged ``RECONNECTED`` and a ``reconnected`` event logged; an
+   instrument that restarted or lost its output raises
+   :class:`~drivers.errors.ContinuityError` and nothing is recorded for
+   the point -- the beam's memory state is gone, the run must stop;
+6. the row is appended to the session and flushed before the next point
    (:meth:`sessions.SessionWriter.append`): every applied point gets one,
    unmeasured ones with output NaN.
 
@@ -117,9 +124,9 @@ class Sequencer:
         held = "nothing applied yet" if math.isnan(self._setpoint) else f"heater held at {self._setpoint:g} V"
         self.recorder.log("paused", f"Ctrl-C at point {k} of {n} ({phase}); {held}")
         decision = self.on_pause(info) if self.on_pause is not None else "abort"
-        if decision != "resume":
-            raise Aborted(f"aborted by the operator at point {k} of {n}")
         assert self.pause is not None
+        if decision != "resume":
+            raise self.pause.abort(f"aborted by the operator at point {k} of {n}")
         self.pause.clear()
         self.recorder.log("continued", f"resumed by the operator at point {k} ({phase})")
 
@@ -145,11 +152,24 @@ class Sequencer:
         policy = (s.dwell if phase == "saturation" else s.at(k)) if settle else s.transit
         return self._wait(policy, k, "dwell" if phase == "run" else phase)
 
+    def _link_checked(self, k: int, phase: str) -> bool:
+        """Whether the link was re-established during point ``k`` (checked, set-point re-sent, logged)."""
+        if not self.heater.verify():
+            return False
+        what = f"point {k} (flagged RECONNECTED)" if phase == "run" else f"the {phase} at point {k}"
+        self.recorder.log(
+            "reconnected",
+            f"the link to the instrument dropped and came back during {what}: same instrument, output held at "
+            f"{self._setpoint:g} V, set-point sent again",
+        )
+        return True
+
     # ------------------------------------------------------------ phases
     def saturate(self) -> tuple[DwellOutcome, float]:
         """Negative saturation: heater at 0 V for a full dwell; returns the wait and the deflection (um) there."""
         out = self._apply(0, SATURATION_V, True, "saturation")
         deflection, _ = average_reading(self.sensor, self.settings.readings)
+        self._link_checked(0, "saturation")
         self.recorder.log(
             "saturated", f"negative saturation: {SATURATION_V:g} V for {out.waited_s:.6g} s, deflection {deflection:.6g} um"
         )
@@ -165,6 +185,7 @@ class Sequencer:
         for k in range(count):
             settle = bool(reversals[k]) or k == count - 1
             self._apply(k, float(history[k]), settle, "replay")
+            self._link_checked(k, "replay")
             settled += settle
         return ReplayReport(count, settled, self.clock.now() - t0)
 
@@ -191,6 +212,8 @@ class Sequencer:
             f = int(flags[k]) | extra
             if out.timed_out:
                 f |= SampleFlag.DWELL_TIMEOUT
+            if self._link_checked(k, "run"):
+                f |= SampleFlag.RECONNECTED
             result = PointResult(k, self.clock.now() - t0, v, deflection, psd, out.waited_s,
                                  out.settled, bool(measure[k]), int(f))
             self.recorder.append(result.t_s, v, deflection, raw=psd, dwell_s=out.waited_s,

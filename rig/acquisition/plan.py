@@ -14,10 +14,12 @@ points always among them) and the dwell settings.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from drivers.errors import LimitError
 from drivers.protocols import VoltageWindow
 from identify.acquisition_plan import compressive_plan, reversal_points
 from sessions import ExcitationRecord, SampleFlag
@@ -71,14 +73,39 @@ class AcquisitionPlan:
                 f"{len(settings.schedule)} per-point dwell times for a plan of {self.n_points} points"
             )
 
-    def check_window(self, window: VoltageWindow) -> None:
-        """Refuse (before anything is applied) a plan with a set-point the heater does not accept."""
+    def check_window(self, window: VoltageWindow, check: Callable[[float], float] | None = None) -> None:
+        """Refuse (before anything is applied) a plan with a set-point outside the heater's window -- and,
+        given ``check`` (a heater's ``check_setpoint``: every rule as the wire will carry the value, the
+        instrument's full scale too), with a set-point it refuses.  The message names the first such point
+        and says why."""
         bad = np.flatnonzero((self.inputs < window.min_V) | (self.inputs > window.max_V))
         if bad.size:
             k = int(bad[0])
+            v = float(self.inputs[k])
+            why = "; nothing was applied"
+            if check is not None:
+                try:
+                    check(v)
+                except LimitError as exc:
+                    why = f": {exc}"
             raise AcquisitionError(
-                f"point {k} of the plan ({self.inputs[k]:g} V) is outside the heater's window "
-                f"[{window.min_V:g}, {window.max_V:g}] V ({bad.size} point(s) in all); nothing was applied"
+                f"point {k} of the plan ({v:.9g} V) is outside the heater's window "
+                f"[{window.min_V:.9g}, {window.max_V:.9g}] V ({bad.size} point(s) in all){why}"
+            )
+        if check is None:
+            return
+        refused: dict[float, LimitError] = {}
+        for u in np.unique(self.inputs):
+            try:
+                check(float(u))
+            except LimitError as exc:
+                refused[float(u)] = exc
+        if refused:
+            hit = np.isin(self.inputs, list(refused))
+            k = int(np.argmax(hit))
+            v = float(self.inputs[k])
+            raise AcquisitionError(
+                f"point {k} of the plan ({v:.9g} V) cannot be applied ({int(hit.sum())} point(s) in all): {refused[v]}"
             )
 
 

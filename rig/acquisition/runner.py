@@ -11,6 +11,12 @@ interrupted one.  Both end the same way:
   to 0 V first, the session marked ``failed`` with the error, every
   sample kept; the exception is re-raised.
 
+"Heater to 0 V" is :meth:`drivers.rig.Rig.safe_state`: the log message of
+the final status says what is *known* -- 0 V acknowledged and read back,
+or that the heater state is unknown and why -- and so does
+:attr:`RunOutcome.heater` (and :attr:`Rig.heater_state` when an exception
+is raised).
+
 **Resuming** (:func:`resume`) restores the memory state before going on,
 because hysteresis has memory: opening the rig already wrote 0 V, so the
 device is not where the interrupted run left it.  The sequencer drives to
@@ -30,6 +36,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from drivers.protocols import SafeState
 from drivers.rig import Rig
 from sessions import DataFileError, ExcitationRecord, SampleFlag, Session, SessionWriter, Status, read_session
 
@@ -43,7 +50,8 @@ from .plan import AcquisitionPlan
 @dataclass(frozen=True)
 class RunOutcome:
     """How a run ended.  ``start`` samples were in the session before it (0 for a new one),
-    ``replayed`` of them were re-applied to restore the memory state; ``wall_s`` in s."""
+    ``replayed`` of them were re-applied to restore the memory state; ``wall_s`` in s;
+    ``heater`` what is known about the heater at the end."""
 
     path: Path
     status: Status
@@ -51,6 +59,7 @@ class RunOutcome:
     replayed: int
     message: str
     wall_s: float
+    heater: SafeState | None = None
 
 
 @dataclass
@@ -62,35 +71,28 @@ class Hooks:
     on_sample: Callable[[PointResult], None] | None = None
 
 
-def _heater_off(rig: Rig) -> None:
-    """0 V now; if the link is dead, the rig's close tries again and says so."""
-    try:
-        rig.heater.set_voltage(0.0)
-    except Exception:
-        pass
-
-
 def _drive(rig: Rig, writer: SessionWriter, body: Callable[[], None], start: int, replayed: list[int]) -> RunOutcome:
     t0 = time.perf_counter()
 
-    def outcome(status: Status, message: str) -> RunOutcome:
-        return RunOutcome(writer.path, status, start, replayed[0], message, time.perf_counter() - t0)
+    def outcome(status: Status, message: str, heater: SafeState) -> RunOutcome:
+        return RunOutcome(writer.path, status, start, replayed[0], message, time.perf_counter() - t0, heater)
 
     with writer:
         try:
             body()
         except KeyboardInterrupt as exc:  # Aborted, a second Ctrl-C, SIGTERM
-            _heater_off(rig)
+            heater = rig.safe_state()
             message = str(exc) or "interrupted"
-            writer.finish(Status.ABORTED, f"{message}; heater at 0 V")
-            return outcome(Status.ABORTED, message)
+            writer.finish(Status.ABORTED, f"{message}; {heater.describe()}")
+            return outcome(Status.ABORTED, message, heater)
         except BaseException as exc:
-            _heater_off(rig)
-            writer.finish(Status.FAILED, f"{type(exc).__name__}: {exc}")
+            heater = rig.safe_state()
+            writer.finish(Status.FAILED, f"{type(exc).__name__}: {exc}; {heater.describe()}"
+                          if heater.confirmed else f"{heater.describe()}; {type(exc).__name__}: {exc}")
             raise
-        _heater_off(rig)
-        writer.finish(Status.COMPLETE)
-        return outcome(Status.COMPLETE, "")
+        heater = rig.safe_state()
+        writer.finish(Status.COMPLETE, "" if heater.confirmed else heater.describe())
+        return outcome(Status.COMPLETE, "", heater)
 
 
 def acquire(
@@ -111,7 +113,7 @@ def acquire(
     Raises before creating the session when the plan does not fit the heater.
     """
     plan = AcquisitionPlan.from_record(record)
-    plan.check_window(rig.heater.window)
+    plan.check_window(rig.heater.window, rig.heater.check_setpoint)  # as the wire carries them, full scale too
     settings = settings if settings is not None else DwellSettings.from_description(record.dwell)
     plan.check_settings(settings)
     hooks = hooks or Hooks()
@@ -153,7 +155,7 @@ def resume(
     """Continue the interrupted session ``path`` on ``rig``: saturate, replay, go on (see the module doc)."""
     session = resumable(path)
     plan = AcquisitionPlan.from_record(session.excitation)
-    plan.check_window(rig.heater.window)
+    plan.check_window(rig.heater.window, rig.heater.check_setpoint)  # as the wire carries them, full scale too
     settings = DwellSettings.from_description(session.excitation.dwell)
     plan.check_settings(settings)
     hooks = hooks or Hooks()

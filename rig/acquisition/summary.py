@@ -65,6 +65,7 @@ def summarise(session: Session, outcome: RunOutcome) -> dict[str, Any]:
         "n_reversals": int(rev.sum()),
         "n_settled": int(rows["settled"].sum()),
         "n_timeouts": int(np.count_nonzero(rows["flags"] & SampleFlag.DWELL_TIMEOUT)),
+        "n_reconnected": int(np.count_nonzero(rows["flags"] & SampleFlag.RECONNECTED)),
         "resumed": outcome.start > 0 or any(e.event == "reopened" for e in session.events),
         "n_replayed": outcome.replayed,
         "dwell": exc.dwell,

@@ -8,9 +8,10 @@ from pathlib import Path
 import click
 from click.core import ParameterSource
 
+from drivers.backends import setpoint_rules
 from drivers.config import RigConfig, default_config, load_config, parse_config
-from drivers.errors import ConfigError, DriverError
-from drivers.guard import terminate_as_interrupt
+from drivers.errors import CodecError, ConfigError, DriverError, LimitError, SafeStateError, SetpointRefused
+from drivers.protocols import SafeState
 from drivers.rig import open_rig
 from rig.acquisition import (
     AcquisitionError,
@@ -31,7 +32,7 @@ from rig.acquisition import (
 )
 from rig.acquisition.progress import ProgressBar, format_duration, terminal_prompt
 from rig.acquisition.runner import resumable
-from sessions import DataFileError, Session, Status, read_session
+from sessions import DataFileError, Session, Status, StorageError, read_session
 
 from ..errors import RigFault
 from ..output import print_json
@@ -85,6 +86,9 @@ def _report(summary: dict, as_json: bool) -> None:
     )
     if s["resumed"]:
         click.echo(f"resumed: the memory state was restored by replaying {s['n_replayed']} points")
+    if s["n_reconnected"]:
+        click.echo(f"{s['n_reconnected']} point(s) measured across a reconnection of the link (flagged RECONNECTED; "
+                   "the instrument was checked to be the same one holding the set-point)")
     click.echo(f"rig time {format_duration(s['rig_time_s'])} on the {s['clock']} clock (wall {s['wall_s']:.3g} s)")
     if s["n_applied"] > s["n_measured"]:
         click.echo(
@@ -155,7 +159,8 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         if out.exists() or out.is_symlink():
             raise DataFileError(f"{out}: already exists; a session is never overwritten")
         cfg = load_config(config_path) if config_path else default_config()
-        window = cfg.heater.limits().window
+        rules = setpoint_rules(cfg)
+        window = rules.window
         schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points, seed=seed,
                                    thermal_term=thermal_term, dwell=dwell, choices=_dwell_choices(dwells))
         settings = _settings(dwell, settle, poll, transit, readings, schedule)
@@ -164,34 +169,66 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
                             seed=seed, thermal_term=thermal_term),
             settings, measure, seed,
         )
-        AcquisitionPlan.from_record(record).check_window(window)  # before the rig is touched
+        AcquisitionPlan.from_record(record).check_window(window, rules.check)  # before the rig is touched
         target, total, start = out, record.n_points, 0
 
     bar = ProgressBar(total, start, enabled=sys.stderr.isatty() if progress is None else progress)
     switch = PauseSwitch()
     hooks = Hooks(switch, terminal_prompt(bar), bar.update)
+    rig = None
     try:
-        with terminate_as_interrupt(), switch.installed(), open_rig(cfg) as rig:
+        with switch.installed(linger=True), open_rig(cfg) as rig:
             if resume_path is not None:
                 outcome = resume_acquisition(rig, resume_path, hooks=hooks)
             else:
                 outcome = run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes,
                                           hooks=hooks)
-    except DriverError as exc:
+    except (DriverError, StorageError) as exc:
         bar.close()
-        if not target.exists():  # failed before the session was created
-            raise
-        s = read_session(target)
-        raise RigFault(
-            f"{exc} -- heater at 0 V; session {target} is {s.status.value} with {s.n_samples} of "
-            f"{s.excitation.n_points} points kept; continue with: rig acquire --resume {target}"
-        ) from None
+        if rig is None or rig.heater_state is None or not target.exists():
+            raise  # nothing was driven, or the session was never created: the error says it all
+        after = _after_fault(target, rig.heater_state, exc)
+        raise RigFault(after if isinstance(exc, SafeStateError) else f"{exc} -- {after}") from None
+    except KeyboardInterrupt as exc:  # an abort outside the run itself (opening the rig, closing it)
+        bar.close()
+        heater = rig.heater_state if rig is not None else None
+        said = heater.describe() if heater is not None else "the heater was not driven"
+        kept = ""
+        if target.exists() and rig is not None:
+            s = read_session(target)
+            kept = f"; session {target} is {s.status.value} with {s.n_samples} of {s.excitation.n_points} points kept"
+        click.echo(f"aborted ({str(exc) or 'interrupted'}): {said}{kept}", err=True)
+        raise click.exceptions.Exit(EXIT_ABORTED) from None
     bar.close()
     _report(summarise(read_session(target), outcome), as_json)
     if outcome.status is Status.ABORTED:
         click.echo(
-            f"aborted ({outcome.message}): heater at 0 V, every sample kept; "
-            f"continue with: rig acquire --resume {target}", err=True,
+            f"aborted ({outcome.message}): {rig.heater_state.describe()}; every sample kept; "
+            f"{_resume_advice(target, rig.heater_state)}", err=True,
         )
         raise click.exceptions.Exit(EXIT_ABORTED)
+    if not rig.heater_state.confirmed:  # complete, but the heater could not be confirmed at 0 V
+        raise RigFault(_after_fault(target, rig.heater_state))
 
+
+def _resume_advice(target: Path, heater: SafeState, fault: BaseException | None = None) -> str:
+    if isinstance(fault, (SetpointRefused, LimitError, CodecError)):
+        return ("the plan cannot be completed on this rig as configured (--resume would fail the same way): "
+                "fix [heater] in rig.toml (max_V, max_current_mA, full_scale_V) or the plan, and start a new run")
+    if not heater.confirmed:
+        return f"once the bench is safe and the instrument answers, continue with: rig acquire --resume {target}"
+    if isinstance(fault, StorageError):
+        return f"free space (or mend the disk), then continue with: rig acquire --resume {target}"
+    return f"continue with: rig acquire --resume {target}"
+
+
+def _after_fault(target: Path, heater: SafeState, fault: BaseException | None = None) -> str:
+    """What a fault left behind, in one clause: the heater as known, the session, and what to do."""
+    try:
+        s = read_session(target)
+    except DataFileError as exc:
+        return f"{heater.describe()}; the session cannot be read back ({exc})"
+    kept = f"session {target} is {s.status.value} with {s.n_samples} of {s.excitation.n_points} points kept"
+    if s.status is Status.COMPLETE:
+        return f"{heater.describe()}; {kept}"
+    return f"{heater.describe()}; {kept}; {_resume_advice(target, heater, fault)}"

@@ -17,6 +17,13 @@ def _fmt(value, unit: str) -> str:
     return "-" if value is None else f"{value:.4g} {unit}"
 
 
+def _window(window, full_scale) -> str:
+    if window is None:
+        return "-"
+    scale = "unknown" if full_scale is None else f"+-{full_scale:g} V"
+    return f"[{window[0]:g}, {window[1]:.6g}] V within the instrument's full scale ({scale})"
+
+
 @click.command()
 @click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=Path),
               help="rig.toml (default: the built-in simulated device).")
@@ -42,6 +49,8 @@ def selftest(config_path, as_json):
             ["heater", ok(report["heater_ok"]),
              f"set {_fmt(report['test_voltage_V'], 'V')}, read back {_fmt(report['readback_V'], 'V')}"],
             ["safe state", ok(report["safe_state"]), "heater read back at 0 V"],
+            ["window", ok(report["window_ok"]) if report["connected"] else "FAILED",
+             _window(report["window_V"], report["full_scale_V"])],
         ]
         click.echo(f"rig selftest, driver '{report['driver']}':")
         click.echo(format_table(["check", "result", "detail"], rows))

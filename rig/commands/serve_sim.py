@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import os
 import signal
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from drivers.clock import RealClock
 from drivers.config import default_config, load_config
 from drivers.sim import SimVO2
 from drivers.sim.bench import SimBench, endpoints_from_config, parse_host_port
+from drivers.sim.journal import open_journal_file
 
 from ..output import print_json
 
@@ -28,8 +30,10 @@ DEFAULT_MODBUS = "127.0.0.1:5020"
               help="rig.toml: its [sim] physics, [modbus] register map and unit id, [serial] commands.")
 @click.option("--seed", type=int, default=None, help="Seed of the PSD noise (overrides [sim] seed).")
 @click.option("--allow-remote", is_flag=True, help="Allow listening on addresses other than loopback.")
+@click.option("--journal", "journal_path", type=click.Path(dir_okay=False, path_type=Path),
+              help="Append every set-point request (and start/stop) to this file as JSON lines, as it arrives.")
 @click.option("--json", "as_json", is_flag=True, help="Once listening, print the endpoints as one JSON object.")
-def serve_sim(modbus_at, modbus_rtu_at, serial_at, config_path, seed, allow_remote, as_json):
+def serve_sim(modbus_at, modbus_rtu_at, serial_at, config_path, seed, allow_remote, journal_path, as_json):
     """Run the simulated device on loopback until Ctrl-C, in real time.
 
     With no endpoint option it listens where --config's clients connect
@@ -57,7 +61,19 @@ def serve_sim(modbus_at, modbus_rtu_at, serial_at, config_path, seed, allow_remo
         parse_host_port(serial_at.removeprefix("socket://"), "--serial", allow_remote)
     device = SimVO2(params, RealClock())
     bench = SimBench(device, cfg.modbus, cfg.serial)
-    asyncio.run(_serve(bench, modbus, modbus_rtu, serial_at, as_json))
+    sink = None
+    if journal_path is not None:
+        try:
+            sink = open_journal_file(journal_path)
+        except OSError as exc:
+            raise click.BadParameter(f"cannot write {journal_path}: {exc.strerror}", param_hint="--journal") from None
+        bench.journal.sink = sink
+    try:
+        asyncio.run(_serve(bench, modbus, modbus_rtu, serial_at, as_json))
+        bench.journal.event("stop", heater_V=device.applied_voltage)
+    finally:
+        if sink is not None:
+            sink.close()
     requests = bench.journal.setpoints
     click.echo(
         f"serve-sim: stopped; {len(requests)} set-point request(s) received, "
@@ -78,6 +94,7 @@ async def _serve(bench: SimBench, modbus, modbus_rtu, serial_at, as_json: bool) 
             await bench.start_modbus(*modbus_rtu, rtu=True)
         if serial_at:
             await bench.start_serial(serial_at)
+        bench.journal.event("start", pid=os.getpid(), endpoints=dict(bench.endpoints))
         if as_json:
             print_json(dict(bench.endpoints))
         else:
