@@ -50,18 +50,23 @@ def _drift_params():
     return {"runs": {"sim": {"knots_s": knots.tolist(), "coefficients": coef.tolist()}}}
 
 
+from identify.effects.creep import TIME_CONSTANTS_S as CREEP_TAUS  # noqa: E402
+from identify.effects.thermal_lag import TIME_CONSTANTS_S as LAG_TAUS  # noqa: E402
+
 TRUTHS = {
-    "thermal_lag": {"time_constant_s": 7.0, "fraction": 0.2},
+    "thermal_lag": {"drive": "power", "time_constants_s": list(LAG_TAUS),
+                    "fractions": [0.0, 0.0, 0.0, 0.1, 0.0, 0.15, 0.0, 0.0, 0.0, 0.0]},
     "baseline_drift": None,
     "ambient_drift": None,
-    "joule_power": {"um_per_V2": 0.07},
-    "creep": {"time_constants_s": [10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0],
-              "weights_um_per_V": [0.0, 0.02, 0.05, 0.0, 0.01, 0.0]},
+    "joule_power": {"um_per_V2": 0.07, "um_per_V4": -0.002},
+    # a spectrum the fit's (weak) roughness penalty leaves alone: straight over log tau
+    "creep": {"drive": "reversal", "time_constants_s": list(CREEP_TAUS),
+              "weights": list(0.002 + 0.004 * np.arange(len(CREEP_TAUS)))},
     "sensor_nonlinearity": {"knots_z": [-1.0, -0.5, 0.0, 0.5, 1.0], "coefficients_um": [0.3, -0.5, 0.2],
                             "centre_um": 0.0, "half_range_um": 3.0},
     "reversible": {"knots": GRID.walls.tolist(), "values_um": (0.3 * np.sin(GRID.walls)).tolist()},
-    "interaction": {"k": 0.02},
-    "first_point": {"coefficients_um": [0.01, 0.02, -0.005, 0.03, -0.01, 0.004]},
+    "interaction": {"k": 0.02, "drive": "voltage"},
+    "first_point": {"coefficients_um": [0.01, 0.02, -0.005, 0.03, -0.01, 0.004], "decay": 0.5},
 }
 
 
@@ -99,7 +104,9 @@ def test_each_effect_recovers_its_own_parameters_exactly_from_noise_free_data(na
     assert fit.rmse <= 1e-9 * scale
     got = fit.model.effects[0].params
     for key, value in params.items():
-        if key == "runs":
+        if isinstance(value, str):
+            assert got[key] == value
+        elif key == "runs":
             for run, entry in value.items():
                 got_c = np.asarray(got["runs"][run]["coefficients"])
                 np.testing.assert_allclose(got_c, entry["coefficients"], atol=1e-7 * max(1.0, np.abs(got_c).max()))
@@ -213,6 +220,7 @@ def test_rig_identify_with_stores_the_effects_and_predict_and_validate_use_them(
     assert out["name"] == "ls+joule_power"
     assert [e["name"] for e in out["effects"]] == ["joule_power"]
     assert out["effects"][0]["params"]["um_per_V2"] == pytest.approx(0.07, rel=1e-6)
+    assert out["effects"][0]["params"]["um_per_V4"] == pytest.approx(-0.002, rel=1e-6)
     stored = read_session(path).models["ls+joule_power"]
     assert isinstance(stored, ModelRecord) and stored.model.effects[0].params == out["effects"][0]["params"]
     pred = rig("predict", tmp_path / "m.json", path, "--json")

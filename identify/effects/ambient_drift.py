@@ -57,6 +57,7 @@ class AmbientDrift(Effect):
     summary = "the room temperature drifts, shifting where the transition happens (on the input)"
     stage = INPUT
     per_run = True
+    absolute = True
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         runs = params.get("runs")
@@ -131,11 +132,11 @@ class AmbientDrift(Effect):
         coef = np.asarray(coef, dtype=float).copy()
         first = ctx.runs[0]
         mine = np.asarray(cols.run_of) == 0
-        if mine.any():  # the first run's columns were centred: so is its step (its splines add up to one)
-            step = coef[mine]
-            coef[mine] = step - time_splines(first)[first.rows].mean(axis=0) @ step
+        if mine.any():  # the first run's columns were centred: so is its drift (its splines add up to one)
+            c = coef[mine]
+            coef[mine] = c - time_splines(first)[first.rows].mean(axis=0) @ c
         previous = (self.params or {}).get("runs")
-        return AmbientDrift({"runs": {**(previous or {}), **run_splines(ctx.runs, cols, coef, previous)}})
+        return AmbientDrift({"runs": {**(previous or {}), **run_splines(ctx.runs, cols, coef)}})
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
         return drift_report(self.params, "V2", runs)

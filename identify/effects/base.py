@@ -113,6 +113,12 @@ class Context:
     #: ``x -> sum mu_ij s_ij(x) + mu0`` for ``model`` (the thermal term left out), ``(n,)`` -> ``(n,)``;
     #: None: :meth:`PreisachModel.predict`.  The joint fit passes a cached one.
     hysteresis: Callable[[np.ndarray], np.ndarray] | None = None
+    #: Per run ``(n_i,)``: equation (22)'s part of the output (before the output effects); None: ``predictions``.
+    bare: tuple[np.ndarray, ...] | None = None
+
+    def bare_output(self, i: int) -> np.ndarray:
+        """Run ``i``'s output before the output effects (what drives creep of the output), ``(n_i,)``."""
+        return self.predictions[i] if self.bare is None else self.bare[i]
 
     @classmethod
     def of_model(cls, model: "PreisachModel", runs: tuple[Run, ...] | list[Run], n_fit: int | None = None) -> "Context":
@@ -162,6 +168,12 @@ class Effect(ABC):
     drives_thermal_term: ClassVar[bool] = False
     #: Names of settings refined continuously (on a log scale) after the grid search, in the joint fit.
     continuous: ClassVar[tuple[str, ...]] = ()
+    #: (input effects) Coefficients are where the parameters go, not steps: the joint fit adds the
+    #: columns times :meth:`coefficients` to its target, so signs and penalties apply to the parameters.
+    absolute: ClassVar[bool] = False
+    #: The name of a more general effect this one is a special case of (None): when both explain a gap
+    #: equally well, the diagnosis names the special case -- fewer terms, the same physics.
+    within: ClassVar[str | None] = None
 
     def __init__(self, params: dict[str, Any] | None = None) -> None:
         self.params = None if params is None else self.check_params(dict(params))
@@ -199,12 +211,11 @@ class Effect(ABC):
     def with_fit(self, ctx: Context, setting: dict[str, float], coef: np.ndarray, cols: Columns) -> "Effect":
         """A fitted instance from the coefficients ``coef`` ``(k,)`` of ``cols`` (the columns of ``setting``
         at ``ctx``).  Input effects' coefficients are steps from this instance's parameters (zero when
-        unfitted); the others' are the coefficients themselves."""
+        unfitted) unless they are :attr:`absolute`; the others' are the coefficients themselves."""
         raise NotImplementedError
 
     def coefficients(self, ctx: Context) -> np.ndarray:
-        """(input effects with a penalty) The current coefficients in the order of :meth:`columns` at
-        ``ctx`` (the joint fit penalises where a step takes them, not the step)."""
+        """(input effects, :attr:`absolute`) The current coefficients in the order of :meth:`columns` at ``ctx``."""
         raise NotImplementedError
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
@@ -236,8 +247,12 @@ class Effect(ABC):
         """(input) The hysterons' input ``(n,)`` given the input ``x`` ``(n,)`` before this effect."""
         return x
 
-    def contribution(self, run: Run) -> np.ndarray:
-        """(output) The effect's contribution to the output (um) at every point of ``run``, ``(n,)``."""
+    #: (output) Whether the contribution depends on the model's own output (``contribution``'s ``u``).
+    needs_output: bool = False
+
+    def contribution(self, run: Run, u: np.ndarray | None = None) -> np.ndarray:
+        """(output) The effect's contribution to the output (um) at every point of ``run``, ``(n,)``;
+        ``u`` ``(n,)`` is the hysteresis part's output (um) where the effect depends on it."""
         return np.zeros(run.n)
 
     def sense(self, u: np.ndarray) -> np.ndarray:

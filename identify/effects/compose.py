@@ -74,12 +74,17 @@ def preisach_output(model: "PreisachModel", x: np.ndarray, thermal: np.ndarray) 
     return bare.predict(x) + bare.c_d * (np.asarray(thermal, dtype=float) - np.asarray(x, dtype=float))
 
 
-def output_contributions(effects: Iterable[Effect], run: Run) -> np.ndarray:
-    """The output effects' contributions summed (um), ``(n,)``."""
+def output_contributions(effects: Iterable[Effect], run: Run, u: np.ndarray | None = None,
+                         which: str = "all") -> np.ndarray:
+    """The output effects' contributions summed (um), ``(n,)``; ``u`` the hysteresis part's output (for the
+    effects that depend on it); ``which``: ``all``, ``static`` (those that do not) or ``driven`` (those that do)."""
     total = np.zeros(run.n)
     for e in effects:
-        if e.stage == OUTPUT and e.fitted:
-            total += e.contribution(run)
+        if e.stage != OUTPUT or not e.fitted:
+            continue
+        if (which == "static" and e.needs_output) or (which == "driven" and not e.needs_output):
+            continue
+        total += e.contribution(run, u)
     return total
 
 
@@ -96,15 +101,16 @@ def deflection(model: "PreisachModel", run: Run, effects: Iterable[Effect] | Non
     """The output before the sensor stage (um), ``(n,)``.  ``feedback``: the output the hysterons feel
     (with ``interaction``); None solves the fixed point (prediction)."""
     effects = list(model.effects if effects is None else effects)
-    extra = output_contributions(effects, run)
+    static = output_contributions(effects, run, which="static")
     inter = next((e for e in effects if isinstance(e, Interaction) and e.k != 0.0), None)
     if inter is None or feedback is not None:
         x, thermal = hysteron_inputs(effects, run, feedback)
-        return preisach_output(model, x, thermal) + extra
-    others = [e for e in effects if e is not inter]
-    a, thermal = hysteron_inputs(others, run)
-    b = model.mu0 + model.c_d * thermal + extra
-    return _fixed_point(model, a, b, inter.k)
+        u = preisach_output(model, x, thermal)
+    else:  # the hysterons feel the hysteresis part and the static contributions (not what they drive)
+        others = [e for e in effects if e is not inter]
+        a, thermal = hysteron_inputs(others, run)
+        u = _fixed_point(model, a, model.mu0 + model.c_d * thermal + static, inter.k, inter.drive) - static
+    return u + static + output_contributions(effects, run, u, which="driven")
 
 
 def predict_run(model: "PreisachModel", run: Run, effects: Iterable[Effect] | None = None) -> np.ndarray:
@@ -129,8 +135,9 @@ def contributions(model: "PreisachModel", run: Run) -> dict[str, np.ndarray]:
 
 
 # ---------------------------------------------------------------- the mean-field fixed point
-def _fixed_point(model: "PreisachModel", a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
-    """``u = b + P(x)`` with ``x = a + k u`` at every point, the memory stepped point by point."""
+def _fixed_point(model: "PreisachModel", a: np.ndarray, b: np.ndarray, k: float, drive: str = "voltage") -> np.ndarray:
+    """``u = b + P(x)`` with ``x = a + k u`` (``x^2 = a^2 + k u`` for ``drive="power"``) at every point,
+    the memory stepped point by point."""
     from ..forward import HysteresisState
 
     bare = replace(model, mu0=0.0, c_d=0.0, effects=())
@@ -141,10 +148,17 @@ def _fixed_point(model: "PreisachModel", a: np.ndarray, b: np.ndarray, k: float)
     p_here = state.output
     u = np.empty(a.size)
     for n in range(a.size):
-        x = _first_root(state, walls, grid.v_min, grid.step, float(a[n]), float(b[n]), k, x, p_here)
+        x = _first_root(state, walls, grid.v_min, grid.step, float(a[n]), float(b[n]), k, x, p_here, drive)
         p_here = state.apply(x)
         u[n] = b[n] + p_here
     return u
+
+
+def _target(a: float, k: float, b: float, p: float, drive: str) -> float:
+    """Where the hysterons' input must be for Preisach part ``p``: ``a + k (b + p)`` or, on power, its root."""
+    if drive == "power":
+        return math.copysign(math.sqrt(max(a * a + k * (b + p), 0.0)), a if a else 1.0)
+    return a + k * (b + p)
 
 
 def _breakpoints(state, walls: np.ndarray, v_min: float, step: float, x: float, d: float) -> list[float]:
@@ -157,21 +171,28 @@ def _breakpoints(state, walls: np.ndarray, v_min: float, step: float, x: float, 
     return sorted(set(ahead.tolist()), key=lambda p: (p - x) * d)
 
 
-def _first_root(state, walls, v_min, step, a, b, k, x0, p0) -> float:
-    g0 = a + k * (b + p0) - x0
+def _first_root(state, walls, v_min, step, a, b, k, x0, p0, drive="voltage") -> float:
+    def g(x: float, p: float) -> float:
+        return _target(a, k, b, p, drive) - x
+
+    g0 = g(x0, p0)
     if g0 == 0.0:
         return x0
     d = 1.0 if g0 > 0 else -1.0
     lo, g_lo = x0, g0
     for hi in _breakpoints(state, walls, v_min, step, x0, d):
-        g_hi = a + k * (b + state.peek(hi)) - hi
+        g_hi = g(hi, state.peek(hi))
         if g_hi * d <= 0:
-            mid = 0.5 * (lo + hi)
-            g_mid = a + k * (b + state.peek(mid)) - mid
-            return _quadratic_root(lo, mid, hi, g_lo, g_mid, g_hi, d)
+            if drive == "voltage":  # P is a quadratic of x on the piece: exact roots
+                mid = 0.5 * (lo + hi)
+                return _quadratic_root(lo, mid, hi, g_lo, g(mid, state.peek(mid)), g_hi, d)
+            from scipy.optimize import brentq
+
+            return float(brentq(lambda x: g(x, state.peek(x)), min(lo, hi), max(lo, hi), xtol=1e-15 * step,
+                                rtol=8.9e-16))
         lo, g_lo = hi, g_hi
-    # beyond the grid P is constant: g falls with slope -1 in the direction of motion
-    return a + k * (b + state.peek(lo + d * step))
+    # beyond the grid P is constant: the input goes where the constant output puts it
+    return _target(a, k, b, state.peek(lo + d * step), drive)
 
 
 def _quadratic_root(x0: float, x1: float, x2: float, g0: float, g1: float, g2: float, d: float) -> float:

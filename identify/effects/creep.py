@@ -1,12 +1,23 @@
-"""``creep``: the deflection relaxes slowly after each reversal.
+"""``creep``: the deflection relaxes slowly after the output changes.
 
-After each reversal the output is offset by ``E_r K(t - t_r)`` and relaxes
-(um): ``E_r`` the excursion (V) that ended at the reversal, ``t_r`` the
-time the input turned back; transients add up.  The kernel is a
-relaxation spectrum, ``K(t) = s sum_j a_j exp(-t / tau_j)`` with
-``a_j >= 0`` over :data:`TIME_CONSTANTS_S` and one sign ``s`` (a setting),
-so it decays monotonically whatever its shape (a Prony series
-approximates any completely monotone kernel over seconds to an hour).
+A change of the output relaxes afterwards (um), and relaxations add up
+(Boltzmann superposition).  What drives it is a setting:
+
+* ``reversal`` -- each excursion of the input ``E_r`` (V) that ends at a
+  reversal, from the time ``t_r`` the input turned back: ``E_r K(t - t_r)``;
+* ``output`` -- every change of the hysteresis part's output ``du_k`` (um)
+  at every set-point, from the time it was applied: ``du_k K(t - t_k)``.
+
+The kernel is a relaxation spectrum, ``K(t) = s sum_j a_j exp(-t / tau_j)``
+with ``a_j >= 0`` over :data:`TIME_CONSTANTS_S` (2 s to 5.5 h, log-spaced)
+and one sign ``s`` (a setting): it decays monotonically whatever its shape
+-- a single exponential, a stretched exponential, a power law, logarithmic
+creep over the spectrum's span (any completely monotone kernel is such a
+mixture).  A roughness penalty on the spectrum over ``log tau`` (its
+weight a setting, chosen by cross-validation in the diagnosis) keeps the
+family from paying for its flexibility with noise.  Each relaxation is
+summed recursively (one pass per time constant), so long runs cost
+``O(n)``.
 """
 
 from __future__ import annotations
@@ -18,60 +29,119 @@ import numpy as np
 from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
-from .base import OUTPUT, Columns, Context, Effect, finite_array, needs_reversals, needs_time, single_columns
+from .base import OUTPUT, Columns, Context, Effect, finite_array, needs_reversals, needs_time
 
-#: Relaxation times of the kernel (s).
-TIME_CONSTANTS_S = (10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0)
+#: Relaxation times of the kernel (s): log-spaced from 2 s to 5.5 h.
+TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(2.0, 20000.0, 9))
+#: What drives the relaxation (a setting).
+DRIVES = ("reversal", "output")
+#: Weights of the spectrum's roughness penalty tried by the diagnosis (relative to the data).
+SMOOTHING = (0.01, 1.0)
+#: The weight when a model is fitted with creep (``rig identify --with``).
+FIT_SMOOTHING = 0.01
 
 
-def relaxations(run: Run, taus: np.ndarray) -> np.ndarray:
-    """``(n, J)``: after each reversal, the excursion times ``exp(-(t - t_r) / tau_j)``, summed over reversals."""
-    h = run.history
-    out = np.zeros((run.n, len(taus)))
-    for r, (first, t_r, e) in enumerate(zip(h.turn_index, h.turn_t, h.excursion_V)):
-        dt = run.t_s[first:] - t_r
-        out[first:] += e * np.exp(-np.clip(dt, 0.0, None)[:, None] / np.asarray(taus)[None, :])
+def relax(t_s: np.ndarray, start_s: np.ndarray, amount: np.ndarray, taus: np.ndarray) -> np.ndarray:
+    """``(n, J)``: at every reading time ``t_s[n]``, ``sum_k amount_k exp(-(t_n - start_k) / tau_j)`` over
+    the steps ``k <= n`` (step ``k`` happens at ``start_s[k] <= t_s[k]``)."""
+    taus = np.asarray(taus, dtype=float)
+    n = t_s.size
+    out = np.empty((n, taus.size))
+    state = np.zeros(taus.size)
+    prev_t = t_s[0] if n else 0.0
+    for k in range(n):
+        state = state * np.exp(-max(t_s[k] - prev_t, 0.0) / taus)
+        if amount[k]:
+            state = state + amount[k] * np.exp(-max(t_s[k] - start_s[k], 0.0) / taus)
+        out[k] = state
+        prev_t = t_s[k]
     return out
+
+
+def reversal_steps(run: Run) -> np.ndarray:
+    """``(n,)``: at the first point after each reversal, the excursion (V) that ended there; 0 elsewhere."""
+    h = run.history
+    out = np.zeros(run.n)
+    np.add.at(out, h.turn_index, h.excursion_V)
+    return out
+
+
+def output_steps(u: np.ndarray) -> np.ndarray:
+    """``(n,)``: the change of the output ``u`` (um) into every point (from the first point's value)."""
+    return np.diff(np.asarray(u, dtype=float), prepend=float(u[0]) if len(u) else 0.0)
+
+
+def relaxations(run: Run, taus: np.ndarray, drive: str = "reversal", u: np.ndarray | None = None) -> np.ndarray:
+    """``(n, J)``: the relaxation columns of ``run`` for each time constant."""
+    if drive == "reversal":
+        steps = reversal_steps(run)
+    elif drive == "output":
+        if u is None:
+            raise IdentifyError("creep driven by the output needs the model's output")
+        steps = output_steps(u)
+    else:
+        raise IdentifyError(f"creep drive must be one of {', '.join(DRIVES)}, got {drive!r}")
+    return relax(run.t_s, run.setpoint_t, steps, taus)
+
+
+def _rough(k: int) -> np.ndarray:
+    d = np.diff(np.eye(k), n=2, axis=0)
+    return d.T @ d
 
 
 class Creep(Effect):
     name = "creep"
-    summary = "the deflection relaxes slowly after each reversal"
+    summary = "the deflection relaxes slowly after the output changes"
     stage = OUTPUT
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         taus = finite_array(params, "time_constants_s", self.name)
-        weights = finite_array(params, "weights_um_per_V", self.name)
-        if taus.size != weights.size or taus.size == 0 or np.any(taus <= 0):
-            raise IdentifyError(f"effect {self.name!r}: time_constants_s (> 0) and weights_um_per_V must match")
-        return {"time_constants_s": taus.tolist(), "weights_um_per_V": weights.tolist()}
+        weights = finite_array(params, "weights_um_per_V", self.name) if "weights_um_per_V" in params else \
+            finite_array(params, "weights", self.name)
+        drive = params.get("drive", "reversal")
+        if taus.size != weights.size or taus.size == 0 or np.any(taus <= 0) or drive not in DRIVES:
+            raise IdentifyError(f"effect {self.name!r}: time_constants_s (> 0) and weights must match, drive one of "
+                                f"{', '.join(DRIVES)}")
+        return {"drive": drive, "time_constants_s": taus.tolist(), "weights": weights.tolist()}
+
+    @property
+    def needs_output(self) -> bool:
+        return bool(self.params and self.params["drive"] == "output")
 
     def applicable(self, runs: tuple[Run, ...]) -> str | None:
         return needs_time(runs)
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
-        return self.applicable(runs) or needs_reversals(runs, "it relaxes after reversals")
+        return self.applicable(runs) or needs_reversals(runs, "it relaxes after the output changes direction")
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"sign": 1.0}, {"sign": -1.0}]
+        return [{"drive": d, "sign": s, "smoothing": w} for d in DRIVES for s in (1.0, -1.0) for w in SMOOTHING]
+
+    def fit_settings_grid(self) -> list[dict[str, float]]:
+        return [{"drive": d, "sign": s, "smoothing": FIT_SMOOTHING} for d in DRIVES for s in (1.0, -1.0)]
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         taus = np.asarray(TIME_CONSTANTS_S)
-        values = [setting["sign"] * relaxations(r, taus) for r in ctx.runs]
-        labels = tuple(f"um_per_V_at_{tau:g}s" for tau in taus)
-        return single_columns(ctx.runs, values, labels, (True,) * taus.size)
+        drive = setting.get("drive", "reversal")
+        values = [setting["sign"] * relaxations(r, taus, drive, ctx.bare_output(i)) for i, r in enumerate(ctx.runs)]
+        unit = "um_per_V" if drive == "reversal" else "fraction"
+        labels = tuple(f"{unit}_at_{tau:.3g}s" for tau in taus)
+        k = taus.size
+        return Columns(tuple(values), labels, (True,) * k, (-1,) * k, _rough(k), setting.get("smoothing", 0.0))
 
     def with_fit(self, ctx, setting, coef, cols) -> "Creep":
         w = setting["sign"] * np.asarray(coef, dtype=float)
-        return Creep({"time_constants_s": list(TIME_CONSTANTS_S), "weights_um_per_V": w.tolist()})
+        return Creep({"drive": setting.get("drive", "reversal"), "time_constants_s": list(TIME_CONSTANTS_S),
+                      "weights": w.tolist()})
 
-    def contribution(self, run: Run) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None) -> np.ndarray:
         p = self.params
-        return relaxations(run, np.asarray(p["time_constants_s"])) @ np.asarray(p["weights_um_per_V"])
+        return relaxations(run, np.asarray(p["time_constants_s"]), p["drive"], u) @ np.asarray(p["weights"])
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
-        w = np.asarray(self.params["weights_um_per_V"])
+        w = np.asarray(self.params["weights"])
         taus = np.asarray(self.params["time_constants_s"])
         mean_tau = float(np.sum(np.abs(w) * taus) / max(float(np.sum(np.abs(w))), 1e-300))
-        return {"um_per_V": float(w.sum()), "mean_time_constant_s": mean_tau,
-                "spectrum_um_per_V": {f"um_per_V_at_{t:g}s": float(x) for t, x in zip(taus, w)}}
+        unit = "um_per_V" if self.params["drive"] == "reversal" else "fraction"
+        return {"drive": self.params["drive"], unit: float(w.sum()), "mean_time_constant_s": mean_tau,
+                "spectrum": {f"at_{t:.3g}s": float(x) for t, x in zip(taus, w)}}

@@ -1,7 +1,9 @@
 """``interaction``: mean-field interaction between hysterons (the "moving" Preisach model).
 
 The hysterons see the input plus a multiple of the output, ``x = v + k u``
-(``k`` in input units per output unit).  On the VO2 actuator the
+(``k`` in input units per output unit) -- or, a setting, the heater power
+plus a multiple of it, ``x^2 = v^2 + k u`` (the temperature the
+transition sees moves with the deflection).  On the VO2 actuator the
 transition temperature moves with stress, which the deflection itself
 changes; in a magnetic sample the field each grain feels includes the
 sample's magnetisation.  ``k > 0`` steepens and widens the loop, ``k < 0``
@@ -24,12 +26,15 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
 from .base import INPUT, Columns, Context, Effect, finite, needs_reversals, require_params, single_columns
 
 #: Step of the secant in ``k``, relative to the input range over the output range.
 STEP = 1e-3
+#: What the output feeds back into (a setting): the input in volts, or the heater power (V^2).
+DRIVES = ("voltage", "power")
 #: Where the joint fit starts ``k`` (relative to the input range over the output range): the
 #: measured-feedback residual can have local minima when the feedback is strong.
 STARTS = (-0.5, -0.2, 0.0, 0.2, 0.5)
@@ -42,7 +47,14 @@ class Interaction(Effect):
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         require_params(params, ("k",), self.name)
-        return {"k": finite(params, "k", self.name)}
+        drive = params.get("drive", "voltage")
+        if drive not in DRIVES:
+            raise IdentifyError(f"effect {self.name!r}: drive must be one of {', '.join(DRIVES)}")
+        return {"k": finite(params, "k", self.name), "drive": drive}
+
+    @property
+    def drive(self) -> str:
+        return self.params.get("drive", "voltage") if self.fitted else "voltage"
 
     @property
     def k(self) -> float:
@@ -51,33 +63,52 @@ class Interaction(Effect):
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         return needs_reversals(runs, "mean-field feedback shows only where the input turns back")
 
+    def settings_grid(self) -> list[dict[str, float]]:
+        return [{"drive": d} for d in DRIVES]
+
     def fit_settings_grid(self) -> list[dict[str, float]]:
-        return [{"start": s} for s in STARTS]
+        return [{"drive": d, "start": s} for d in DRIVES for s in STARTS]
 
     def with_setting(self, setting: dict[str, float], ctx: Context | None = None) -> "Interaction":
-        if self.fitted or ctx is None or not setting.get("start"):
+        if self.fitted or ctx is None:
             return self
-        scale = (ctx.grid.v_max - ctx.grid.v_min) / (2.0 * ctx.output_half_range)
-        return Interaction({"k": float(setting["start"]) * scale})
+        drive = setting.get("drive", "voltage")
+        scale = _scale(ctx, drive)
+        return Interaction({"k": float(setting.get("start", 0.0)) * scale, "drive": drive})
 
     def transform(self, run: Run, x: np.ndarray, feedback: np.ndarray | None = None) -> np.ndarray:
         if not self.k:
             return x
         if feedback is None:
             raise ValueError("interaction needs the output the hysterons feel (prediction solves a fixed point)")
-        return x + self.k * feedback
-
-    def step(self, ctx: Context) -> float:
-        """The secant step in ``k``: :data:`STEP` times the input range per output range."""
-        return STEP * (ctx.grid.v_max - ctx.grid.v_min) / (2.0 * ctx.output_half_range)
+        return shifted(x, self.k * feedback, self.drive)
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
-        dk = self.step(ctx)
+        drive = self.drive if self.fitted else setting.get("drive", "voltage")
+        dk = STEP * _scale(ctx, drive)
         values = []
         for i, run in enumerate(ctx.runs):
             x = ctx.inputs[i]
-            values.append(((ctx.response(i, x + dk * ctx.feedback[i]) - ctx.response(i, x)) / dk)[:, None])
+            # the input before this effect: the current one minus the current feedback (in its own units)
+            before = shifted(x, -self.k * ctx.feedback[i], drive) if self.k else x
+            moved = shifted(before, (self.k + dk) * ctx.feedback[i], drive)
+            values.append(((ctx.response(i, moved) - ctx.response(i, x)) / dk)[:, None])
         return single_columns(ctx.runs, values, ("k",))
 
     def with_fit(self, ctx, setting, coef, cols) -> "Interaction":
-        return Interaction({"k": float(self.k + coef[0])})
+        drive = self.drive if self.fitted else setting.get("drive", "voltage")
+        return Interaction({"k": float(self.k + coef[0]), "drive": drive})
+
+
+def shifted(x: np.ndarray, amount: np.ndarray, drive: str) -> np.ndarray:
+    """The hysterons' input ``x`` moved by ``amount``: in volts, or in heater power (``sqrt(x^2 + amount)``)."""
+    if drive == "power":
+        return np.sign(x) * np.sqrt(np.maximum(x * x + amount, 0.0)) if np.any(x) else np.sqrt(np.maximum(amount, 0.0))
+    return x + amount
+
+
+def _scale(ctx: Context, drive: str) -> float:
+    """``k``'s natural scale: the input range (in the drive's units) per output range."""
+    g = ctx.grid
+    span = g.v_max - g.v_min if drive == "voltage" else max(g.v_max ** 2, g.v_min ** 2)
+    return span / (2.0 * ctx.output_half_range)

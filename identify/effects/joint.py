@@ -168,10 +168,13 @@ class _Hysteresis:
         return lambda x: self.operator(np.asarray(x, dtype=float)).matvec(w)
 
 
-def _deflection(hyst, model: PreisachModel, effects: tuple[Effect, ...], run: Run, fb: np.ndarray) -> np.ndarray:
-    """The output before the sensor stage with the hysterons feeling ``fb`` (fitting's convention)."""
+def _deflection(hyst, model: PreisachModel, effects: tuple[Effect, ...], run: Run, fb: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The output before the sensor stage with the hysterons feeling ``fb`` (fitting's convention), and
+    its equation (22) part."""
     x, thermal = hysteron_inputs(effects, run, fb)
-    return hyst(x) + model.c_d * thermal + output_contributions(effects, run)
+    u = hyst(x) + model.c_d * thermal
+    return u + output_contributions(effects, run, u), u
 
 
 def _context(evaluator: _Hysteresis, grid: Grid, model: PreisachModel, effects: tuple[Effect, ...],
@@ -182,20 +185,22 @@ def _context(evaluator: _Hysteresis, grid: Grid, model: PreisachModel, effects: 
     unmeasured points it is first interpolated between measured ones, then
     replaced by the model's output computed with that feedback."""
     hyst = evaluator.of(model)
-    inputs, thermal, preds, fbs = [], [], [], []
+    inputs, thermal, preds, fbs, bare = [], [], [], [], []
     for r in runs:
         rows = r.rows
         fb = np.interp(np.arange(r.n), rows, r.outputs[rows]) if rows.size else np.zeros(r.n)
-        u = _deflection(hyst, model, effects, r, fb)
+        u, u0 = _deflection(hyst, model, effects, r, fb)
         if rows.size < r.n and any(e.name == "interaction" and e.fitted for e in effects):
             fb = feedback_of(r, u)
-            u = _deflection(hyst, model, effects, r, fb)
+            u, u0 = _deflection(hyst, model, effects, r, fb)
         x, th = hysteron_inputs(effects, r, fb)
         inputs.append(x)
         thermal.append(th)
         preds.append(u)
         fbs.append(fb)
-    return Context(grid, model, runs, tuple(inputs), tuple(thermal), tuple(preds), tuple(fbs), centre, half, hyst)
+        bare.append(u0)
+    return Context(grid, model, runs, tuple(inputs), tuple(thermal), tuple(preds), tuple(fbs), centre, half, hyst,
+                   tuple(bare))
 
 
 def _rss(effects: tuple[Effect, ...], ctx: Context) -> float:
@@ -265,13 +270,17 @@ class _Fitter:
             scale = np.sqrt(np.mean(extra[st.rows] ** 2, axis=0))
             scale = np.where(scale > 0, scale, 1.0)
             penalty = self._penalty(cols, owner, scale, st.rows.size)
-            # an input effect's coefficients are steps from where it is: its penalty acts on where it goes
+            # an input effect's linearisation is about where it is: with absolute coefficients the
+            # target takes the columns times where it is, so the solve returns where it goes
             current = np.zeros(len(blocks))
             for k, e in enumerate(effects):
-                if e.stage == INPUT and e.fitted and cols[k].k and cols[k].roughness is not None and cols[k].smoothing > 0:
+                if e.stage == INPUT and e.absolute and e.fitted and cols[k].k:
                     at = [j for j, (i, _) in enumerate(owner) if i == k]
-                    current[at] = e.coefficients(ctx) * scale[at]
-            target = None if penalty is None else -(penalty @ current)
+                    current[at] = e.coefficients(ctx)
+            if np.any(current):
+                shift = extra @ current
+                outputs = outputs + (shift if row_scale is None else row_scale * shift)
+            target = None
             order = np.argsort(~np.asarray(nonneg), kind="stable")  # sign-constrained columns first
             extra = extra[:, order] / scale[order]
             penalty = None if penalty is None else penalty[:, order]
@@ -334,7 +343,8 @@ class _Fitter:
         cur = self.state(start.model, effects)
         model, fitted = self.solve(cur.ctx, cur.effects, settings, frozen=True)
         cur = self.state(model, fitted)
-        if not any(e.stage in (INPUT, SENSOR) for e in effects):
+        # input and sensor effects, and terms driven by the model's own output, need iterating
+        if not any(e.stage in (INPUT, SENSOR) or s.get("drive") == "output" for e, s in zip(effects, settings)):
             return cur
         for _ in range(max_iter):
             if cur.rss <= self.exact:
@@ -398,7 +408,7 @@ def _between(a: Effect, b: Effect, t: float) -> Effect:
 
 
 #: Parameters that are not coefficients (scales, knots, settings): never interpolated by a half step.
-FIXED_KEYS = ("time_constant_s", "knots_z", "centre_um", "half_range_um", "knots_s", "knots")
+FIXED_KEYS = ("time_constant_s", "time_constants_s", "knots_z", "centre_um", "half_range_um", "knots_s", "knots")
 
 
 def fit_with_effects(

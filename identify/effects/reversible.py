@@ -84,7 +84,7 @@ class Reversible(Effect):
         values = np.concatenate([[0.0], np.cumsum(steps)])
         return Reversible({"knots": knots.tolist(), "values_um": values.tolist(), "monotone": self.monotone})
 
-    def contribution(self, run: Run) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None) -> np.ndarray:
         p = self.params
         return np.interp(run.inputs, p["knots"], p["values_um"])
 

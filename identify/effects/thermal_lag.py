@@ -1,24 +1,29 @@
 """``thermal_lag``: the beam is measured short of its set-point, because part of its heating is slow.
 
-A resistive heater heats in proportion to ``v^2``; a thermal lag relaxes
-the temperature, so the lag is a blend of squared voltages (a blend of
-volts would make heating and cooling lag alike, which they do not).  A
-fraction ``f`` of the rise follows a slow mode with time constant ``tau``
-(s), which relaxes over each point's recorded dwell from where the
-previous point left it::
+The beam's temperature follows the heater through thermal dynamics of any
+low order: a sum of first-order modes, mode ``j`` holding a fraction
+``f_j`` of the temperature and relaxing with time constant ``tau_j`` over
+each point's recorded dwell from where the previous point left it.  The
+modes are a spectrum on :data:`TIME_CONSTANTS_S` (0.5 s to 5 min,
+log-spaced) with ``f_j >= 0``, so one, two or three modes -- or a
+continuum -- are all members.  What drives them is a setting: the heater's
+Joule **power** (the temperature rise is ``~ v^2``: heating and cooling
+then lag differently) or the **voltage**::
 
-    s_k = v_k^2 + (s_{k-1} - v_k^2) exp(-dwell_k / tau),     x_k = sqrt(v_k^2 + f (s_k - v_k^2))
+    s_jk = d_k + (s_j,k-1 - d_k) exp(-dwell_k / tau_j),     d = v^2 (power) or v (voltage)
+    x_k  = g(d_k + sum_j f_j (s_jk - d_k)),                 g = sqrt (power) or identity (voltage)
 
-``x`` is what the memory curve sees, and the thermal term follows it too
-(the expansion follows the beam's temperature).  An unknown dwell counts
-as fully settled.  Parameters: ``time_constant_s`` (a setting: the best of a grid,
-then refined by Gauss--Newton steps in ``log tau``) and ``fraction`` (in
-[0, 1] by its physics; fitted by Gauss--Newton steps).
+``x`` is what the memory curve sees (an equivalent heater voltage), and the
+thermal term follows it too (the expansion follows the beam's
+temperature).  An unknown dwell counts as fully settled.  Parameters:
+``drive``, ``time_constants_s``, ``fractions`` (in [0, 1], fitted by
+projected Gauss--Newton steps on their secants: non-negative least squares
+of the linearised problem).
 
-Identifiable only from a run whose dwells differ: with one dwell ``d`` the
-lag enters only as ``f exp(-d / tau)``, so ``tau`` and ``f`` cannot be told
-apart -- and a model that cannot tell them apart cannot predict a run with
-other dwells.
+Identifiable only from a run whose dwells differ: with one dwell ``d`` a
+mode enters only as ``f exp(-d / tau)``, so time constants and sizes
+cannot be told apart -- and a model that cannot tell them apart cannot
+predict a run with other dwells.
 """
 
 from __future__ import annotations
@@ -27,57 +32,75 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
-from .base import INPUT, Columns, Context, Effect, finite, needs_heater, require_params, single_columns
+from .base import INPUT, Columns, Context, Effect, finite_array, needs_heater, single_columns
 
-#: Time constants tried first (s): from a fast beam to a slow package.
-TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(0.5, 60.0, 12))
-#: Largest plausible lagging fraction (a whole rise arriving late).
+#: The modes' time constants (s): log-spaced from a fast beam to a slow package.
+TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(0.5, 300.0, 10))
+#: What drives the modes (a setting).
+DRIVES = ("power", "voltage")
+#: Largest plausible lagging fraction of a mode (a whole rise arriving late).
 MAX_FRACTION = 1.0
-#: Step of the secant in the fraction.
+#: Step of the secant in a fraction.
 STEP = 0.05
-#: Step of the secant in ``log tau``.
-LOG_STEP = 0.01
 #: Relative spread below which two dwells count as the same.
 SAME_DWELL = 1e-6
 
 
-def slow_mode(run: Run, tau: float, v: np.ndarray | None = None) -> np.ndarray:
-    """The slow mode's state (V^2) after each point's dwell, ``(n,)``; ``v`` defaults to the run's inputs."""
+def _drive(v: np.ndarray, drive: str) -> np.ndarray:
+    return v * v if drive == "power" else v
+
+
+def slow_mode(run: Run, tau: float, v: np.ndarray | None = None, drive: str = "power") -> np.ndarray:
+    """One mode's state after each point's dwell, ``(n,)`` (V^2 for power, V for voltage); ``v`` defaults
+    to the run's inputs."""
     v = run.inputs if v is None else v
     d = np.where(np.isfinite(run.dwell_s), run.dwell_s, np.inf)
     keep = np.exp(-np.clip(d, 0.0, None) / tau)
-    power = v * v
+    target = _drive(v, drive)
     out = np.empty(run.n)
-    prev = run.initial_V ** 2
+    prev = float(_drive(np.asarray(run.initial_V), drive))
     for k in range(run.n):
-        prev = power[k] + (prev - power[k]) * keep[k]
+        prev = target[k] + (prev - target[k]) * keep[k]
         out[k] = prev
     return out
 
 
-def lagged(run: Run, tau: float, fraction: float, v: np.ndarray | None = None) -> np.ndarray:
-    """The lagged input (V), ``(n,)``, signed as ``v``."""
+def lagged(run: Run, tau: float | np.ndarray, fraction: float | np.ndarray, v: np.ndarray | None = None,
+           drive: str = "power") -> np.ndarray:
+    """The lagged input (V), ``(n,)``, signed as ``v``: modes ``tau`` (s) with ``fraction`` each."""
     v = run.inputs if v is None else v
-    power = v * v
-    return np.sign(v) * np.sqrt(np.maximum(power + fraction * (slow_mode(run, tau, v) - power), 0.0))
+    target = _drive(v, drive)
+    lag = np.zeros(run.n)
+    for t, f in zip(np.atleast_1d(tau), np.atleast_1d(fraction)):
+        if f:
+            lag += f * (slow_mode(run, float(t), v, drive) - target)
+    mixed = target + lag
+    if drive == "power":
+        return np.sign(v) * np.sqrt(np.maximum(mixed, 0.0))
+    return mixed
 
 
 class ThermalLag(Effect):
     name = "thermal_lag"
-    summary = "the dwell is too short for a thermal time constant: the beam is measured short of its set-point"
+    summary = "the dwell is too short for the thermal dynamics: the beam is measured short of its set-point"
     stage = INPUT
     drives_thermal_term = True
+    absolute = True
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
-        require_params(params, ("time_constant_s", "fraction"), self.name)
-        tau = finite(params, "time_constant_s", self.name)
-        if tau <= 0:
-            from ..errors import IdentifyError
-
-            raise IdentifyError(f"effect {self.name!r}: time_constant_s must be > 0, got {tau}")
-        return {"time_constant_s": tau, "fraction": finite(params, "fraction", self.name)}
+        if "time_constant_s" in params:  # one mode, as written by hand
+            params = {"drive": params.get("drive", "power"), "time_constants_s": [params["time_constant_s"]],
+                      "fractions": [params["fraction"]]}
+        taus = finite_array(params, "time_constants_s", self.name)
+        fractions = finite_array(params, "fractions", self.name)
+        drive = params.get("drive", "power")
+        if taus.size == 0 or taus.size != fractions.size or np.any(taus <= 0) or drive not in DRIVES:
+            raise IdentifyError(f"effect {self.name!r}: time_constants_s (> 0) and fractions must match, drive one of "
+                                f"{', '.join(DRIVES)}")
+        return {"drive": drive, "time_constants_s": taus.tolist(), "fractions": fractions.tolist()}
 
     def applicable(self, runs: tuple[Run, ...]) -> str | None:
         heater = needs_heater(runs)
@@ -95,60 +118,63 @@ class ThermalLag(Effect):
         dwells = dwells[np.isfinite(dwells)]
         if dwells.size == 0 or np.ptp(dwells) <= SAME_DWELL * max(float(np.max(np.abs(dwells))), 1e-300):
             d = f" ({float(dwells[0]):g} s)" if dwells.size else ""
-            return (f"every measured point has the same dwell{d}, so the lag's time constant and its size cannot be "
+            return (f"every measured point has the same dwell{d}, so the lag's time constants and sizes cannot be "
                     "told apart; record the identification run with varied dwells "
                     "(rig acquire --sequence damped --dwells 8,15,30,60)")
         return None
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"time_constant_s": tau} for tau in TIME_CONSTANTS_S]
+        return [{"drive": d} for d in DRIVES]
 
-    def with_setting(self, setting: dict[str, float], ctx: Context | None = None) -> "ThermalLag":
+    def _state(self, setting: dict[str, float]) -> tuple[str, np.ndarray, np.ndarray]:
         if self.fitted:
-            return self
-        return ThermalLag({"time_constant_s": setting["time_constant_s"], "fraction": 0.0})
+            p = self.params
+            return p["drive"], np.asarray(p["time_constants_s"]), np.asarray(p["fractions"])
+        taus = np.asarray(TIME_CONSTANTS_S)
+        return setting.get("drive", "power"), taus, np.zeros(taus.size)
 
     def transform(self, run: Run, x: np.ndarray, feedback: np.ndarray | None = None) -> np.ndarray:
-        p = self.params
-        if not p or p["fraction"] == 0:
+        drive, taus, fractions = self._state({})
+        if not np.any(fractions):
             return x
-        return lagged(run, p["time_constant_s"], p["fraction"], x)
-
-    def _point(self, setting: dict[str, float]) -> tuple[float, float]:
-        """``(tau, f)`` the columns are taken at: this fit's, else the setting's time constant and no lag."""
-        if self.fitted:
-            return self.params["time_constant_s"], self.params["fraction"]
-        return setting["time_constant_s"], 0.0
+        return lagged(run, taus, fractions, x, drive)
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
-        """The secant in the fraction; once the lag is fitted and nonzero, also in ``log tau`` (so the
-        joint fit refines the time constant by Gauss--Newton steps too)."""
-        tau, f0 = self._point(setting)
-        with_tau = self.fitted and f0 > 0
+        """The secant of the output in each mode's fraction (at the current fractions; the memory curve and
+        the thermal term both see the lagged input)."""
+        drive, taus, f0 = self._state(setting)
         scale = ctx.grid.v_max - ctx.grid.v_min
         values = []
         for i, run in enumerate(ctx.runs):
-            here = lagged(run, tau, f0)
-            moved = lagged(run, tau, f0 + STEP)
-            if np.max(np.abs(moved - here)) <= 1e-12 * scale:
-                values.append(np.zeros((run.n, 2 if with_tau else 1)))
-                continue
+            here = lagged(run, taus, f0, drive=drive)
             base = ctx.response(i, here, here)
-            cols = [(ctx.response(i, moved, moved) - base) / STEP]
-            if with_tau:
-                slower = lagged(run, tau * np.exp(LOG_STEP), f0)
-                cols.append((ctx.response(i, slower, slower) - base) / LOG_STEP)
-            values.append(np.stack(cols, axis=1))
-        labels = ("fraction", "log_time_constant") if with_tau else ("fraction",)
-        return single_columns(ctx.runs, values, labels, (not self.fitted,) + ((False,) if with_tau else ()))
+            cols = np.zeros((run.n, taus.size))
+            for j in range(taus.size):
+                f = f0.copy()
+                f[j] += STEP
+                moved = lagged(run, taus, f, drive=drive)
+                if np.max(np.abs(moved - here)) > 1e-12 * scale:
+                    cols[:, j] = (ctx.response(i, moved, moved) - base) / STEP
+            values.append(cols)
+        labels = tuple(f"fraction_at_{t:.3g}s" for t in taus)
+        return single_columns(ctx.runs, values, labels, (True,) * taus.size)
+
+    def coefficients(self, ctx: Context) -> np.ndarray:
+        return np.asarray(self.params["fractions"], dtype=float)
 
     def with_fit(self, ctx, setting, coef, cols) -> "ThermalLag":
-        tau, f0 = self._point(setting)
-        if len(coef) > 1:  # a Gauss--Newton step in log tau, at most a factor e
-            tau *= float(np.exp(np.clip(coef[1], -1.0, 1.0)))
-        # a lagging fraction is between none and the whole rise
-        fraction = float(np.clip(f0 + coef[0], 0.0, MAX_FRACTION))
-        return ThermalLag({"time_constant_s": float(tau), "fraction": fraction})
+        drive, taus, _ = self._state(setting)
+        fractions = np.clip(np.asarray(coef, dtype=float), 0.0, MAX_FRACTION)  # none to the whole rise
+        return ThermalLag({"drive": drive, "time_constants_s": taus.tolist(), "fractions": fractions.tolist()})
 
     def bounds(self) -> dict[str, float]:
-        return {"fraction": MAX_FRACTION}
+        return {f"fraction_at_{t:.3g}s": MAX_FRACTION for t in TIME_CONSTANTS_S}
+
+    def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
+        p = self.params
+        f = np.asarray(p["fractions"])
+        taus = np.asarray(p["time_constants_s"])
+        total = float(f.sum())
+        return {"drive": p["drive"], "fraction": total,
+                "mean_time_constant_s": float(np.sum(f * taus) / total) if total > 0 else None,
+                "modes": {f"at_{t:.3g}s": float(x) for t, x in zip(taus, f) if x > 0}}
