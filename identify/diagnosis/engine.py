@@ -234,6 +234,19 @@ def _with_reference(e: np.ndarray, a: np.ndarray, cols: Columns, recal: np.ndarr
                   np.concatenate([np.asarray(cols.nonneg, bool), np.zeros(r, bool)]))
 
 
+def _pair_design(first: tuple, cols_first: Columns, second: tuple, cols_second: Columns, recal: np.ndarray) -> Design:
+    """Two candidates fitted together (each with its own penalty), with the reference's directions once."""
+    ea, aa, _ = first
+    eb, ab, _ = second
+    ka, kb, r = cols_first.k, cols_second.k, recal.shape[1]
+    blocks = tuple((offset + np.arange(c.k), np.asarray(c.roughness, float), float(c.smoothing))
+                   for c, offset in ((cols_first, 0), (cols_second, ka))
+                   if c.roughness is not None and c.smoothing > 0)
+    nonneg = np.concatenate([np.asarray(cols_first.nonneg, bool), np.asarray(cols_second.nonneg, bool), np.zeros(r, bool)])
+    return Design(np.hstack([ea, eb, recal]), np.hstack([aa, ab, np.zeros((aa.shape[0], r))]), None, 0.0, nonneg,
+                  blocks)
+
+
 def _assessable(cand: Candidate, cols: Columns, scored: _Scored, n_fit: int) -> str | None:
     """Why ``cand`` cannot be assessed on these check runs, or None."""
     for j, r in enumerate(cols.run_of):
@@ -360,6 +373,7 @@ def diagnose(
     # candidates: held-out predictions of the gap
     ind = onehot(blocks)
     results, not_assessed = [], []
+    fits: dict[str, tuple] = {}
     for cand in cands:
         why_not = cand.applicable(ctx.runs)
         if why_not is not None:
@@ -380,6 +394,21 @@ def diagnose(
         full = cols_list[cv.full_setting]
         params = fitted_params(cand, ctx, grid_settings[cv.full_setting], cv.full_coef[: full.k], full)
         results.append((cand, after, params, visible, note))
+        fits[cand.name] = (parts, cols_list, cv.full_setting)
+
+    # a second effect: every other candidate fitted together with the one that improves most on its own
+    pair_with, pairs_after = None, None
+    if results:
+        best = min(results, key=lambda r: float(np.mean(r[1] ** 2)))[0].name
+        pair_with = best
+        pairs_after = np.full((len(results), gap.size), np.nan)
+        pa, ca, sa = fits[best]
+        for i, (cand, *_rest) in enumerate(results):
+            if cand.name == best:
+                continue
+            pb, cb, _ = fits[cand.name]
+            designs = [_pair_design(pa[sa], ca[sa], p, c, recal) for p, c in zip(pb, cb)]
+            pairs_after[i] = gap - cross_validate(gap, blocks, designs, base.residual, fit_weight).prediction
 
     sse_base = ind @ reference**2
     sse = np.array([ind @ a**2 for _, a, *_ in results]).reshape(len(results), blocks.count)
@@ -398,6 +427,9 @@ def diagnose(
         floor_rse=noise.relative_se_of_variance if noise is not None else 0.0,
         boot=boot,
         structure=structure,
+        pair_with=pair_with,
+        pairs_after=pairs_after,
+        within=tuple(getattr(c, "within", None) for c, *_ in results),
     )
     verdict = evidence.decide()
     z, mse_base, mse, shrink = evidence.z(), evidence.mse_base, evidence.mse, evidence.shrink
@@ -453,9 +485,13 @@ def diagnose(
         output_unit=output_unit,
     )
     chosen = result.chosen
-    if chosen is not None and chosen in residual_after:
-        object.__setattr__(result, "where_after", bin_residuals(feats, residual_after[chosen], floor, unit_names))
     named = verdict_effects(verdict)
+    if len(named) == 2 and pairs_after is not None:  # what is left with both named effects
+        j = [c.name for c, *_ in results].index(named[1])
+        residual_after["+".join(named)] = -pairs_after[j]
+        object.__setattr__(result, "where_after", bin_residuals(feats, -pairs_after[j], floor, unit_names))
+    elif chosen is not None and chosen in residual_after:
+        object.__setattr__(result, "where_after", bin_residuals(feats, residual_after[chosen], floor, unit_names))
     if named and settings.keep:
         object.__setattr__(result, "kept", keep_model(grid, fit_runs, tuple(used), tuple(rows), named, settings,
                                                       base.thermal_term, result.fit_only_rmse_um))
@@ -464,7 +500,9 @@ def diagnose(
 
 def verdict_effects(verdict: Verdict) -> tuple[str, ...]:
     """The effects a verdict names (explained), in order."""
-    return (verdict.effect,) if verdict.status == "explained" and verdict.effect else ()
+    if verdict.status != "explained":
+        return ()
+    return verdict.effects or ((verdict.effect,) if verdict.effect else ())
 
 
 def keep_model(grid: Grid, fit_runs: tuple[Run, ...], check_runs: tuple[Run, ...], rows: tuple[np.ndarray, ...],

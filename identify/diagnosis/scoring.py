@@ -148,6 +148,28 @@ class Design:
     roughness: np.ndarray | None = None
     smoothing: float = 0.0
     nonneg: np.ndarray | None = None
+    #: Further penalties on blocks of the columns, each ``(columns, R, smoothing)`` weighed like ``roughness``
+    #: against the data Gram matrix of its own columns (two candidates fitted together keep their own).
+    blocks: tuple = ()
+
+
+def joint_design(a: Design, b: Design) -> Design:
+    """Two candidates' designs fitted together: their columns side by side, each keeping its penalty."""
+    ka, kb = a.check.shape[1], b.check.shape[1]
+    fit = None
+    if a.fit is not None or b.fit is not None:
+        fa = a.fit if a.fit is not None else np.zeros((b.fit.shape[0], ka))
+        fb = b.fit if b.fit is not None else np.zeros((a.fit.shape[0], kb))
+        fit = np.hstack([fa, fb])
+    blocks = []
+    for d, offset, k in ((a, 0, ka), (b, ka, kb)):
+        if d.roughness is not None and d.smoothing > 0:
+            blocks.append((offset + np.arange(k), np.asarray(d.roughness, dtype=float), float(d.smoothing)))
+        for idx, r, w in d.blocks:
+            blocks.append((offset + np.asarray(idx), r, w))
+    nonneg = np.concatenate([np.zeros(ka, bool) if a.nonneg is None else np.asarray(a.nonneg, bool),
+                             np.zeros(kb, bool) if b.nonneg is None else np.asarray(b.nonneg, bool)])
+    return Design(np.hstack([a.check, b.check]), fit, None, 0.0, nonneg, tuple(blocks))
 
 
 @dataclass(frozen=True)
@@ -189,6 +211,12 @@ def _normal(design: Design, gap: np.ndarray, ind: np.ndarray, fit_residual, fit_
         a = a / scale
         gram = gram + fit_weight * (a.T @ a)
         rhs = rhs + fit_weight * (a.T @ fit_residual)
+    for idx, r, w in design.blocks:
+        idx = np.asarray(idx)
+        p = np.asarray(r, dtype=float) / np.outer(scale[idx], scale[idx])
+        sub = gram[np.ix_(idx, idx)]
+        gram = gram.copy()
+        gram[np.ix_(idx, idx)] = sub + w * p * np.trace(sub) / max(np.trace(p), 1e-300)
     if design.roughness is not None and design.smoothing > 0:
         p = np.asarray(design.roughness, dtype=float) / np.outer(scale, scale)
         gram = gram + design.smoothing * p * np.trace(gram) / max(np.trace(p), 1e-300)

@@ -65,16 +65,21 @@ Z_SIGNIFICANT = 3.0
 Z_SEPARATED = 2.0
 Z_GAP = 3.0
 MOST = 0.75
+#: A second effect must take away at least this share of what the first leaves of the excess (when the
+#: first alone already closes most of it); see :meth:`Evidence.decide`.
+SECOND_SHARE = 0.5
 
 STATUSES = ("explained", "ambiguous", "unexplained", "no_gap")
 
 
 @dataclass(frozen=True)
 class Verdict:
-    """``status`` (:data:`STATUSES`); ``effect`` named (explained only); ``shrink`` of the effect the
-    verdict rests on (the named one, or the best contender when ambiguous; None otherwise);
-    ``contenders`` the candidates that could not be told apart or the best partial one;
-    ``reason`` one sentence; ``share_closed`` of the excess gap by that effect, when known."""
+    """``status`` (:data:`STATUSES`); ``effect`` named (explained only; the first when there are two);
+    ``shrink`` of the effect(s) the verdict rests on (all named ones together, or the best contender when
+    ambiguous; None otherwise); ``contenders`` the candidates that could not be told apart or the best
+    partial one; ``reason`` one sentence; ``share_closed`` of the excess gap by the named effect(s), when
+    known; ``effects`` every effect named, in the order they were added; ``steps`` one entry per named
+    effect: ``{"effect", "shrink", "share_closed", "z"}`` -- how much that step took away of what was left."""
 
     status: str
     effect: str | None
@@ -82,6 +87,8 @@ class Verdict:
     contenders: tuple[str, ...]
     reason: str
     share_closed: float | None = None
+    effects: tuple[str, ...] = ()
+    steps: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,6 +108,12 @@ class Evidence:
     floor_rse: float
     boot: np.ndarray
     structure: bool
+    #: The candidate every other one was also fitted together with (the one that improves most alone), and
+    #: the held-out residuals of those pairs ``(c, m)`` (NaN in its own row); None: no second step.
+    pair_with: str | None = None
+    pairs_after: np.ndarray | None = None
+    #: For each candidate, the name of the more general effect it is a special case of (or None).
+    within: tuple = ()
 
     @property
     def m(self) -> int:
@@ -159,6 +172,32 @@ class Evidence:
         return _ratio(float(np.log(self.mse_base / f2)) if self.mse_base > 0 else -np.inf,
                       float(np.sqrt(2.0 / max(self.m, 1) + self.floor_rse**2)))
 
+    def _nested(self, i: int, j: int) -> bool:
+        """Whether candidates ``i`` and ``j`` are a special case and its generalisation."""
+        w = self.within or (None,) * len(self.names)
+        return w[i] == self.names[j] or w[j] == self.names[i]
+
+    def _second(self, first: int, keep: list[int]) -> tuple[int, float, float] | None:
+        """The best second effect with ``first``: ``(index, its gain over first alone, z)``, when it is
+        significant and separated from every other second; None otherwise (or without pairs)."""
+        if self.pairs_after is None or self.pair_with != self.names[first] or self.floor is None:
+            return None
+        alone = self.after[first]
+        mse_first = float(np.mean(alone ** 2))
+        options = [j for j in keep if j != first and not self._nested(first, j) and np.all(np.isfinite(self.pairs_after[j]))]
+        if not options:
+            return None
+        gains = {j: mse_first - float(np.mean(self.pairs_after[j] ** 2)) for j in options}
+        j = max(options, key=lambda k: gains[k])
+        z = _ratio(gains[j], self._se_of(alone - self.pairs_after[j], np.zeros(0)))
+        if z < Z_SIGNIFICANT or gains[j] <= 0:
+            return None
+        for o in options:
+            if o != j and _ratio(gains[j] - gains[o], self._se_of(self.pairs_after[o] - self.pairs_after[j],
+                                                                 np.zeros(0))) < Z_SEPARATED:
+                return None
+        return j, gains[j], z
+
     def decide(self, exclude: tuple[str, ...] = ()) -> Verdict:
         """The verdict with the candidates in ``exclude`` left out of the library."""
         keep = [i for i, n in enumerate(self.names) if n not in exclude]
@@ -179,18 +218,42 @@ class Evidence:
             return Verdict("unexplained", None, None, (),
                            "the residual exceeds the noise floor but no candidate improves it significantly")
         best = max(significant, key=lambda i: gain[i])
+        # a special case that explains as well as its generalisation is named instead (fewer terms)
+        for i in significant:
+            w = self.within[i] if self.within else None
+            if w == names[best] and _ratio(gain[best] - gain[i], self.difference_se(best, i)) < Z_SEPARATED:
+                best = i
+                break
         share = float(min(gain[best] / excess, 1.0)) if excess is not None and excess > 0 else None
         if excess is not None and not gap_present and (share is None or share < MOST):
             return Verdict("no_gap", None, None, (),
                            f"the residual is at the noise floor; {names[best]} improves it a little, "
                            "not enough to stand for a gap")
+        second = self._second(best, keep) if excess is not None and excess > 0 else None
+        if second is not None:
+            j, gain2, z2 = second
+            mse_pair = float(np.mean(self.pairs_after[j] ** 2))
+            joint_share = float(min((self.mse_base - mse_pair) / excess, 1.0))
+            left_by_first = self.mse[best] - (self.mse_base - excess)
+            takes = gain2 / left_by_first if left_by_first > 0 else 0.0
+            needed = share is not None and share < MOST
+            if (needed and joint_share >= MOST) or (not needed and takes >= SECOND_SHARE):
+                steps = ({"effect": names[best], "shrink": float(shrink[best]), "share_closed": share,
+                          "z": float(z[best])},
+                         {"effect": names[j], "shrink": float(1.0 - np.sqrt(mse_pair / self.mse[best])),
+                          "share_closed": float(gain2 / excess), "z": float(z2)})
+                total = float(1.0 - np.sqrt(mse_pair / self.mse_base))
+                return Verdict("explained", names[best], total, (names[best], names[j]),
+                               f"{names[best]} and {names[j]} together: each improves the held-out error clearly "
+                               f"(the second beyond the first), and together they close "
+                               f"{100 * joint_share:.0f} % of the excess", joint_share, (names[best], names[j]), steps)
         if share is not None and share < MOST:
             return Verdict(
                 "unexplained", None, None, (names[best],),
                 f"the best candidate, {names[best]}, closes only {100 * share:.0f} % of the excess over the noise floor",
                 share,
             )
-        tied = [i for i in keep if i != best
+        tied = [i for i in keep if i != best and not self._nested(best, i)
                 and _ratio(gain[best] - gain[i], self.difference_se(best, i)) < Z_SEPARATED]
         if tied:
             contenders = tuple(names[i] for i in [best, *sorted(tied, key=lambda i: -gain[i])])
@@ -199,8 +262,10 @@ class Evidence:
                 f"{names[best]} improves most but cannot be told apart from {', '.join(names[i] for i in tied)}",
                 share,
             )
+        steps = ({"effect": names[best], "shrink": float(shrink[best]), "share_closed": share, "z": float(z[best])},)
         return Verdict("explained", names[best], float(shrink[best]), (names[best],),
-                       f"{names[best]} improves the held-out error clearly, and clearly more than any other", share)
+                       f"{names[best]} improves the held-out error clearly, and clearly more than any other", share,
+                       (names[best],), steps)
 
 
 def _ratio(value: float, se: float) -> float:

@@ -4,7 +4,8 @@ The beam's temperature rise is Joule heating, ``~ v^2``; a change of the
 room temperature adds to it, so the input the memory curve sees is
 ``x = sqrt(v^2 + d(t))``, ``d`` in V^2 (a temperature in units of the
 heater's kelvin per V^2), a smooth function of session time per run (a
-penalised cubic spline, :mod:`identify.effects.bases`).  The thermal term
+penalised cubic spline, :mod:`identify.effects.bases`) -- or, a setting
+(``form``), the room changes the rise per watt: ``x = |v| sqrt(1 + d(t))``.  The thermal term
 follows the heater, not the room.  A per-run nuisance: a stored model
 knows the drift of the runs it was fitted on, by name, and nothing of
 another run's.  The first run's drift has zero mean over its measured
@@ -38,8 +39,11 @@ SMOOTHING = (0.01, 0.1, 1.0, 10.0, 100.0, 1000.0)
 FIT_SMOOTHING = 1.0
 #: Below this fraction of the range the input counts as near zero in ``J / (2 x)``.
 LOW_INPUT = 0.05
-#: Secant step in the drift, in squared cells.
+#: Secant step in the drift, in squared cells (shift) or cells per range (gain).
 SECANT = 1e-3
+#: How the room moves the transition (a setting): an added temperature (``shift``, in heater power), or a
+#: change of the temperature rise per watt (``gain``, relative).
+FORMS = ("shift", "gain")
 
 
 def sensitivity(ctx: Context, i: int) -> np.ndarray:
@@ -63,16 +67,28 @@ class AmbientDrift(Effect):
         runs = params.get("runs")
         if not isinstance(runs, dict):
             raise IdentifyError(f"effect {self.name!r} needs 'runs': {{run name: spline}}")
-        return {"runs": runs, **{k: v for k, v in params.items() if k != "runs"}}
+        form = params.get("form", "shift")
+        if form not in FORMS:
+            raise IdentifyError(f"effect {self.name!r}: form must be one of {', '.join(FORMS)}")
+        return {"runs": runs, "form": form}
+
+    @property
+    def form(self) -> str:
+        return (self.params or {}).get("form", "shift")
 
     def applicable(self, runs: tuple[Run, ...]) -> str | None:
         return needs_heater(runs) or needs_time(runs)
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"smoothing": w} for w in SMOOTHING]
+        return [{"form": f, "smoothing": w} for f in FORMS for w in SMOOTHING]
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
-        return [{"smoothing": FIT_SMOOTHING}]
+        return [{"form": f, "smoothing": FIT_SMOOTHING} for f in FORMS]
+
+    def with_setting(self, setting: dict[str, float], ctx: Context | None = None) -> "AmbientDrift":
+        if self.fitted:
+            return self
+        return AmbientDrift({"runs": {}, "form": setting.get("form", "shift")})
 
     def drift(self, run: Run) -> np.ndarray:
         """This run's ``d(t)`` (V^2) at every point, ``(n,)`` (zeros for a run it was not fitted on)."""
@@ -83,7 +99,7 @@ class AmbientDrift(Effect):
         d = self.drift(run)
         if not np.any(d):
             return x
-        return np.sqrt(np.maximum(x * x + d, 0.0))
+        return moved_input(x, d, self.form)
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         """Linearised at a model without the drift (the diagnosis; a joint fit's first step): the
@@ -100,8 +116,11 @@ class AmbientDrift(Effect):
         if centre_first:  # the first run's mean ambient is the density's reference: its drift has zero mean
             first = ctx.runs[0]
             bases[0] = bases[0] - bases[0][first.rows].mean(axis=0)
-        if not self.fitted:
-            blocks = [sensitivity(ctx, i)[:, None] * b for i, b in enumerate(bases)]
+        form = self.form if self.fitted else setting.get("form", "shift")
+        if not self.fitted or not self.params.get("runs"):
+            factor = [np.maximum(np.abs(ctx.inputs[i]), LOW_INPUT * (ctx.grid.v_max - ctx.grid.v_min)) ** 2
+                      if form == "gain" else 1.0 for i in range(len(ctx.runs))]
+            blocks = [(factor[i] * sensitivity(ctx, i))[:, None] * b for i, b in enumerate(bases)]
         else:
             blocks = [self._secants(ctx, i, b) for i, b in enumerate(bases)]
         return per_run_columns(ctx.runs, blocks, "spline", setting.get("smoothing", 0.0))
@@ -111,11 +130,12 @@ class AmbientDrift(Effect):
         x = ctx.inputs[i]
         before = ctx.thermal[i]  # the input before this effect: the heater voltage, or the lagged one
         base = ctx.response(i, x)
-        step = SECANT * ctx.grid.step ** 2
+        form = self.form
+        step = SECANT * (ctx.grid.step ** 2 if form == "shift" else ctx.grid.step / (ctx.grid.v_max - ctx.grid.v_min))
         out = np.empty(basis.shape)
+        d = self.drift(run)
         for j in range(basis.shape[1]):
-            moved = np.sqrt(np.maximum(before * before + self.drift(run) + step * basis[:, j], 0.0))
-            out[:, j] = (ctx.response(i, moved) - base) / step
+            out[:, j] = (ctx.response(i, moved_input(before, d + step * basis[:, j], form)) - base) / step
         return out
 
     def coefficients(self, ctx: Context) -> np.ndarray:
@@ -136,10 +156,19 @@ class AmbientDrift(Effect):
             c = coef[mine]
             coef[mine] = c - time_splines(first)[first.rows].mean(axis=0) @ c
         previous = (self.params or {}).get("runs")
-        return AmbientDrift({"runs": {**(previous or {}), **run_splines(ctx.runs, cols, coef)}})
+        form = self.form if self.fitted else setting.get("form", "shift")
+        return AmbientDrift({"runs": {**(previous or {}), **run_splines(ctx.runs, cols, coef)}, "form": form})
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
-        return drift_report(self.params, "V2", runs)
+        return {**drift_report(self.params, "V2" if self.form == "shift" else "gain", runs), "form": self.form}
+
+
+def moved_input(x: np.ndarray, d: np.ndarray, form: str) -> np.ndarray:
+    """The hysterons' input with the room's drift ``d``: ``sqrt(x^2 + d)`` (``shift``, ``d`` in V^2) or
+    ``|x| sqrt(1 + d)`` (``gain``: the rise per watt changes by the fraction ``d``)."""
+    if form == "gain":
+        return np.abs(x) * np.sqrt(np.maximum(1.0 + d, 0.0))
+    return np.sqrt(np.maximum(x * x + d, 0.0))
 
 
 def drift_report(params: dict[str, Any] | None, unit: str, runs: tuple[Run, ...] = ()) -> dict[str, Any]:

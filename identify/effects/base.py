@@ -250,9 +250,10 @@ class Effect(ABC):
     #: (output) Whether the contribution depends on the model's own output (``contribution``'s ``u``).
     needs_output: bool = False
 
-    def contribution(self, run: Run, u: np.ndarray | None = None) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
         """(output) The effect's contribution to the output (um) at every point of ``run``, ``(n,)``;
-        ``u`` ``(n,)`` is the hysteresis part's output (um) where the effect depends on it."""
+        ``u`` ``(n,)`` is equation (22)'s output (um) and ``phase`` its phase-transition part (without the
+        bias and the thermal term), where the effect depends on them."""
         return np.zeros(run.n)
 
     def sense(self, u: np.ndarray) -> np.ndarray:

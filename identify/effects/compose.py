@@ -52,17 +52,23 @@ def check_applicable(effects: Iterable[Effect], run: Run) -> None:
             raise EffectNotApplicable(f"the model's effect {e.name} cannot act on {run.name}: {why}")
 
 
-def hysteron_inputs(effects: Iterable[Effect], run: Run, feedback: np.ndarray | None = None
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def hysteron_inputs(effects: Iterable[Effect], run: Run, feedback: np.ndarray | None = None,
+                    model: "PreisachModel | None" = None) -> tuple[np.ndarray, np.ndarray]:
     """``(x, thermal)`` ``(n,)`` each: what the memory curve sees and what the thermal term multiplies.
 
-    ``feedback`` is the output the hysterons feel (needed with ``interaction``)."""
+    ``feedback`` is the output the hysterons feel (needed with ``interaction``; ``model``'s bias and
+    thermal term are taken off it when they feel only the phase-transition part)."""
+    from .interaction import felt
+
     x = run.inputs
     thermal = run.inputs
     for e in pipeline_order(effects):
         if e.stage != INPUT or not e.fitted:
             continue
-        x = e.transform(run, x, feedback)
+        fb = feedback
+        if isinstance(e, Interaction) and feedback is not None and model is not None:
+            fb = felt(feedback, e.source, model.mu0, model.c_d, thermal)
+        x = e.transform(run, x, fb)
         if e.drives_thermal_term:
             thermal = x
     return x, thermal
@@ -75,16 +81,17 @@ def preisach_output(model: "PreisachModel", x: np.ndarray, thermal: np.ndarray) 
 
 
 def output_contributions(effects: Iterable[Effect], run: Run, u: np.ndarray | None = None,
-                         which: str = "all") -> np.ndarray:
-    """The output effects' contributions summed (um), ``(n,)``; ``u`` the hysteresis part's output (for the
-    effects that depend on it); ``which``: ``all``, ``static`` (those that do not) or ``driven`` (those that do)."""
+                         which: str = "all", phase: np.ndarray | None = None) -> np.ndarray:
+    """The output effects' contributions summed (um), ``(n,)``; ``u`` equation (22)'s output and ``phase``
+    its phase-transition part (for the effects that depend on them); ``which``: ``all``, ``static`` (those
+    that do not) or ``driven`` (those that do)."""
     total = np.zeros(run.n)
     for e in effects:
         if e.stage != OUTPUT or not e.fitted:
             continue
         if (which == "static" and e.needs_output) or (which == "driven" and not e.needs_output):
             continue
-        total += e.contribution(run, u)
+        total += e.contribution(run, u, phase)
     return total
 
 
@@ -104,13 +111,16 @@ def deflection(model: "PreisachModel", run: Run, effects: Iterable[Effect] | Non
     static = output_contributions(effects, run, which="static")
     inter = next((e for e in effects if isinstance(e, Interaction) and e.k != 0.0), None)
     if inter is None or feedback is not None:
-        x, thermal = hysteron_inputs(effects, run, feedback)
+        x, thermal = hysteron_inputs(effects, run, feedback, model)
         u = preisach_output(model, x, thermal)
-    else:  # the hysterons feel the hysteresis part and the static contributions (not what they drive)
+    else:  # the hysterons feel equation (22)'s output and the static contributions, or its phase part alone
         others = [e for e in effects if e is not inter]
-        a, thermal = hysteron_inputs(others, run)
-        u = _fixed_point(model, a, model.mu0 + model.c_d * thermal + static, inter.k, inter.drive) - static
-    return u + static + output_contributions(effects, run, u, which="driven")
+        a, thermal = hysteron_inputs(others, run, None, model)
+        b = model.mu0 + model.c_d * thermal + static if inter.source == "output" else np.zeros(run.n)
+        u = _fixed_point(model, a, b, inter.k, inter.drive) + (model.mu0 + model.c_d * thermal
+                                                               if inter.source == "phase" else -static)
+    phase = u - model.mu0 - model.c_d * thermal
+    return u + static + output_contributions(effects, run, u, which="driven", phase=phase)
 
 
 def predict_run(model: "PreisachModel", run: Run, effects: Iterable[Effect] | None = None) -> np.ndarray:

@@ -6,14 +6,22 @@ A change of the output relaxes afterwards (um), and relaxations add up
 * ``reversal`` -- each excursion of the input ``E_r`` (V) that ends at a
   reversal, from the time ``t_r`` the input turned back: ``E_r K(t - t_r)``;
 * ``output`` -- every change of the hysteresis part's output ``du_k`` (um)
-  at every set-point, from the time it was applied: ``du_k K(t - t_k)``.
+  at every set-point, from the time it was applied: ``du_k K(t - t_k)``;
+* ``phase`` -- the same for the phase transition's part alone (the
+  Preisach sum, without the bias and the thermal term);
+* ``excursion`` -- every change of the output's excursion since the last
+  reversal (it starts afresh at each reversal): a creep that relaxes from
+  where it is towards the size of the current excursion.
 
 The kernel is a relaxation spectrum, ``K(t) = s sum_j a_j exp(-t / tau_j)``
-with ``a_j >= 0`` over :data:`TIME_CONSTANTS_S` (2 s to 5.5 h, log-spaced)
+with ``a_j >= 0`` over :data:`TIME_CONSTANTS_S` (2 s to 33 min, log-spaced)
 and one sign ``s`` (a setting): it decays monotonically whatever its shape
 -- a single exponential, a stretched exponential, a power law, logarithmic
 creep over the spectrum's span (any completely monotone kernel is such a
-mixture).  A roughness penalty on the spectrum over ``log tau`` (its
+mixture).  The span stops at half an hour on purpose: over a run of an hour
+or two a relaxation of several hours after every change of the output
+cannot be told from a drift of the output, and a spectrum reaching that far
+took the place of a withheld drift candidate.  A roughness penalty on the spectrum over ``log tau`` (its
 weight a setting, chosen by cross-validation in the diagnosis) keeps the
 family from paying for its flexibility with noise.  Each relaxation is
 summed recursively (one pass per time constant), so long runs cost
@@ -32,9 +40,9 @@ from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite_array, needs_reversals, needs_time
 
 #: Relaxation times of the kernel (s): log-spaced from 2 s to 5.5 h.
-TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(2.0, 20000.0, 9))
+TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(2.0, 2000.0, 7))
 #: What drives the relaxation (a setting).
-DRIVES = ("reversal", "output")
+DRIVES = ("reversal", "output", "phase", "excursion")
 #: Weights of the spectrum's roughness penalty tried by the diagnosis (relative to the data).
 SMOOTHING = (0.01, 1.0)
 #: The weight when a model is fitted with creep (``rig identify --with``).
@@ -71,17 +79,36 @@ def output_steps(u: np.ndarray) -> np.ndarray:
     return np.diff(np.asarray(u, dtype=float), prepend=float(u[0]) if len(u) else 0.0)
 
 
+def excursion_steps(run: Run, u: np.ndarray) -> np.ndarray:
+    """``(n,)``: the change into every point of the output's excursion since the last reversal point."""
+    h = run.history
+    u = np.asarray(u, dtype=float)
+    last = np.searchsorted(h.reversal_index, np.arange(run.n), side="right") - 1
+    ref = np.where(last >= 0, u[h.reversal_index[np.maximum(last, 0)]] if h.reversal_index.size else u[0], u[0])
+    return output_steps(u - ref)
+
+
 def relaxations(run: Run, taus: np.ndarray, drive: str = "reversal", u: np.ndarray | None = None) -> np.ndarray:
-    """``(n, J)``: the relaxation columns of ``run`` for each time constant."""
+    """``(n, J)``: the relaxation columns of ``run`` for each time constant; ``u`` the output that drives
+    it (``output``, ``excursion``: the model's; ``phase``: its phase-transition part)."""
     if drive == "reversal":
         steps = reversal_steps(run)
-    elif drive == "output":
+    elif drive in ("output", "phase", "excursion"):
         if u is None:
-            raise IdentifyError("creep driven by the output needs the model's output")
-        steps = output_steps(u)
+            raise IdentifyError(f"creep driven by the {drive} needs the model's output")
+        steps = excursion_steps(run, u) if drive == "excursion" else output_steps(u)
     else:
         raise IdentifyError(f"creep drive must be one of {', '.join(DRIVES)}, got {drive!r}")
     return relax(run.t_s, run.setpoint_t, steps, taus)
+
+
+def _driver(ctx: Context, i: int, drive: str) -> np.ndarray:
+    """What drives the relaxation on run ``i``: the model's output before the output effects, or its
+    phase-transition part (without the bias and the thermal term)."""
+    u = ctx.bare_output(i)
+    if drive == "phase":
+        return u - ctx.model.mu0 - ctx.model.c_d * ctx.thermal[i]
+    return u
 
 
 def _rough(k: int) -> np.ndarray:
@@ -106,7 +133,7 @@ class Creep(Effect):
 
     @property
     def needs_output(self) -> bool:
-        return bool(self.params and self.params["drive"] == "output")
+        return bool(self.params and self.params["drive"] != "reversal")
 
     def applicable(self, runs: tuple[Run, ...]) -> str | None:
         return needs_time(runs)
@@ -123,8 +150,8 @@ class Creep(Effect):
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         taus = np.asarray(TIME_CONSTANTS_S)
         drive = setting.get("drive", "reversal")
-        values = [setting["sign"] * relaxations(r, taus, drive, ctx.bare_output(i)) for i, r in enumerate(ctx.runs)]
-        unit = "um_per_V" if drive == "reversal" else "fraction"
+        values = [setting["sign"] * relaxations(r, taus, drive, _driver(ctx, i, drive)) for i, r in enumerate(ctx.runs)]
+        unit = "um_per_V" if drive == "reversal" else "fraction"  # of the input excursion, or of the change
         labels = tuple(f"{unit}_at_{tau:.3g}s" for tau in taus)
         k = taus.size
         return Columns(tuple(values), labels, (True,) * k, (-1,) * k, _rough(k), setting.get("smoothing", 0.0))
@@ -134,9 +161,10 @@ class Creep(Effect):
         return Creep({"drive": setting.get("drive", "reversal"), "time_constants_s": list(TIME_CONSTANTS_S),
                       "weights": w.tolist()})
 
-    def contribution(self, run: Run, u: np.ndarray | None = None) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
         p = self.params
-        return relaxations(run, np.asarray(p["time_constants_s"]), p["drive"], u) @ np.asarray(p["weights"])
+        driver = phase if p["drive"] == "phase" else u
+        return relaxations(run, np.asarray(p["time_constants_s"]), p["drive"], driver) @ np.asarray(p["weights"])
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
         w = np.asarray(self.params["weights"])

@@ -8,10 +8,14 @@ offset (um) that may depend on the direction and on the size of a step:
 
 * at the reversal point: ``a0 + a1 sign(E) + a2 E``, ``E`` the excursion
   (input units, signed) that ended there;
-* at the first point after it: ``b0 + b1 d + b2 s``, ``s`` the reversing
-  step (signed, input units) and ``d`` its direction -- optionally
-  persisting over the next points, decaying geometrically by a ratio
-  ``decay`` per point (a setting: 0, or 1/2).
+* at the first point after it: ``b0 + b1 d + b2 s + b3 d sat(|s|)``, ``s`` the
+  reversing step (signed, input units), ``d`` its direction and ``sat`` a
+  saturating function of its size (``1 - exp(-|s| / h)``, ``h`` the
+  grid's cell) -- optionally persisting over the next points, decaying
+  geometrically by a ratio ``decay`` per point (a setting).
+
+Whether the reversal point itself has an offset is a setting too (``at``):
+a run whose reversal readings carry none should not pay for three terms.
 
 Derived from the input history alone (:class:`identify.runs.History`), not
 from time, so any run with reversals carries it; a run whose input never
@@ -29,26 +33,27 @@ from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite, finite_array, needs_reversals, single_columns
 
 LABELS = ("at_offset_um", "at_direction_um", "at_um_per_V", "after_offset_um", "after_direction_um",
-          "after_um_per_V")
+          "after_um_per_V", "after_saturating_um")
 #: Decay ratios of the after-reversal offset over the following points (a setting).
-DECAYS = (0.0, 0.5)
+DECAYS = (0.0, 0.3, 0.6, 0.85)
 #: Points after the first over which a persisting offset is followed.
 PERSIST = 4
 
 
-def indicators(run: Run, decay: float = 0.0) -> np.ndarray:
-    """``(n, 6)``: the terms above at every point (zero away from reversals)."""
+def indicators(run: Run, decay: float = 0.0, cell: float = 1.0) -> np.ndarray:
+    """``(n, 7)``: the terms above at every point (zero away from reversals); ``cell`` the saturation's scale."""
     h = run.history
-    out = np.zeros((run.n, 6))
+    out = np.zeros((run.n, 7))
     e = h.excursion_V
     out_at = np.stack([np.ones_like(e), np.sign(e), e], axis=1)
     np.add.at(out, (h.reversal_index[:, None], np.arange(3)[None, :]), out_at)
     step = run.inputs[h.turn_index] - run.inputs[h.reversal_index]
-    after = np.stack([np.ones_like(step), np.sign(step), step], axis=1)
+    d = np.sign(step)
+    after = np.stack([np.ones_like(step), d, step, d * (1.0 - np.exp(-np.abs(step) / cell))], axis=1)
     for j in range(PERSIST + 1 if decay else 1):
         idx = h.turn_index + j
         ok = idx < run.n
-        np.add.at(out, (idx[ok][:, None], 3 + np.arange(3)[None, :]), (decay ** j) * after[ok])
+        np.add.at(out, (idx[ok][:, None], 3 + np.arange(4)[None, :]), (decay ** j) * after[ok])
     return out
 
 
@@ -59,8 +64,15 @@ class FirstPoint(Effect):
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         decay = finite(params, "decay", self.name) if "decay" in params else 0.0
-        return {"coefficients_um": finite_array(params, "coefficients_um", self.name).tolist(), "terms": list(LABELS),
-                "decay": decay}
+        cell = finite(params, "cell", self.name) if "cell" in params else 1.0
+        coef = finite_array(params, "coefficients_um", self.name)
+        if coef.size == 6:  # written before the saturating term
+            coef = np.append(coef, 0.0)
+        if coef.size != len(LABELS) or cell <= 0:
+            from ..errors import IdentifyError
+
+            raise IdentifyError(f"effect {self.name!r}: needs {len(LABELS)} coefficients_um and cell > 0")
+        return {"coefficients_um": coef.tolist(), "terms": list(LABELS), "decay": decay, "cell": cell}
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         why = needs_reversals(runs, "it acts where the input turns back")
@@ -72,17 +84,23 @@ class FirstPoint(Effect):
         return None
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"decay": d} for d in DECAYS]
+        return [{"decay": d, "at": a} for d in DECAYS for a in (0.0, 1.0)]
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         decay = setting.get("decay", 0.0)
-        return single_columns(ctx.runs, [indicators(r, decay) for r in ctx.runs], LABELS)
+        at = bool(setting.get("at", 1.0))
+        keep = np.arange(len(LABELS)) if at else np.arange(3, len(LABELS))
+        values = [indicators(r, decay, ctx.grid.step)[:, keep] for r in ctx.runs]
+        return single_columns(ctx.runs, values, tuple(LABELS[k] for k in keep))
 
     def with_fit(self, ctx, setting, coef, cols) -> "FirstPoint":
-        return FirstPoint({"coefficients_um": np.asarray(coef, dtype=float).tolist(), "decay": setting.get("decay", 0.0)})
+        full = np.zeros(len(LABELS))
+        full[[LABELS.index(label) for label in cols.labels]] = np.asarray(coef, dtype=float)
+        return FirstPoint({"coefficients_um": full.tolist(), "decay": setting.get("decay", 0.0), "cell": ctx.grid.step})
 
-    def contribution(self, run: Run, u: np.ndarray | None = None) -> np.ndarray:
-        return indicators(run, self.params["decay"]) @ np.asarray(self.params["coefficients_um"])
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
+        p = self.params
+        return indicators(run, p["decay"], p["cell"]) @ np.asarray(p["coefficients_um"])
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
         return {**dict(zip(LABELS, self.params["coefficients_um"])), "decay": self.params["decay"]}

@@ -3,7 +3,8 @@
 The hysterons see the input plus a multiple of the output, ``x = v + k u``
 (``k`` in input units per output unit) -- or, a setting, the heater power
 plus a multiple of it, ``x^2 = v^2 + k u`` (the temperature the
-transition sees moves with the deflection).  On the VO2 actuator the
+transition sees moves with the deflection).  What they feel is the whole
+output or, a setting, its phase-transition part alone.  On the VO2 actuator the
 transition temperature moves with stress, which the deflection itself
 changes; in a magnetic sample the field each grain feels includes the
 sample's magnetisation.  ``k > 0`` steepens and widens the loop, ``k < 0``
@@ -35,6 +36,9 @@ from .base import INPUT, Columns, Context, Effect, finite, needs_reversals, requ
 STEP = 1e-3
 #: What the output feeds back into (a setting): the input in volts, or the heater power (V^2).
 DRIVES = ("voltage", "power")
+#: What the hysterons feel (a setting): the whole output, or its phase-transition part (without the bias
+#: and the thermal term).
+SOURCES = ("output", "phase")
 #: Where the joint fit starts ``k`` (relative to the input range over the output range): the
 #: measured-feedback residual can have local minima when the feedback is strong.
 STARTS = (-0.5, -0.2, 0.0, 0.2, 0.5)
@@ -48,13 +52,19 @@ class Interaction(Effect):
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         require_params(params, ("k",), self.name)
         drive = params.get("drive", "voltage")
-        if drive not in DRIVES:
-            raise IdentifyError(f"effect {self.name!r}: drive must be one of {', '.join(DRIVES)}")
-        return {"k": finite(params, "k", self.name), "drive": drive}
+        source = params.get("source", "output")
+        if drive not in DRIVES or source not in SOURCES:
+            raise IdentifyError(f"effect {self.name!r}: drive must be one of {', '.join(DRIVES)}, source one of "
+                                f"{', '.join(SOURCES)}")
+        return {"k": finite(params, "k", self.name), "drive": drive, "source": source}
 
     @property
     def drive(self) -> str:
         return self.params.get("drive", "voltage") if self.fitted else "voltage"
+
+    @property
+    def source(self) -> str:
+        return self.params.get("source", "output") if self.fitted else "output"
 
     @property
     def k(self) -> float:
@@ -64,17 +74,18 @@ class Interaction(Effect):
         return needs_reversals(runs, "mean-field feedback shows only where the input turns back")
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"drive": d} for d in DRIVES]
+        return [{"drive": d, "source": s} for d in DRIVES for s in SOURCES]
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
-        return [{"drive": d, "start": s} for d in DRIVES for s in STARTS]
+        return [{"drive": d, "source": o, "start": s} for d in DRIVES for o in SOURCES for s in STARTS]
 
     def with_setting(self, setting: dict[str, float], ctx: Context | None = None) -> "Interaction":
         if self.fitted or ctx is None:
             return self
         drive = setting.get("drive", "voltage")
         scale = _scale(ctx, drive)
-        return Interaction({"k": float(setting.get("start", 0.0)) * scale, "drive": drive})
+        return Interaction({"k": float(setting.get("start", 0.0)) * scale, "drive": drive,
+                            "source": setting.get("source", "output")})
 
     def transform(self, run: Run, x: np.ndarray, feedback: np.ndarray | None = None) -> np.ndarray:
         if not self.k:
@@ -85,19 +96,27 @@ class Interaction(Effect):
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         drive = self.drive if self.fitted else setting.get("drive", "voltage")
+        source = self.source if self.fitted else setting.get("source", "output")
         dk = STEP * _scale(ctx, drive)
         values = []
         for i, run in enumerate(ctx.runs):
             x = ctx.inputs[i]
+            fb = felt(ctx.feedback[i], source, ctx.model.mu0, ctx.model.c_d, ctx.thermal[i])
             # the input before this effect: the current one minus the current feedback (in its own units)
-            before = shifted(x, -self.k * ctx.feedback[i], drive) if self.k else x
-            moved = shifted(before, (self.k + dk) * ctx.feedback[i], drive)
+            before = shifted(x, -self.k * fb, drive) if self.k else x
+            moved = shifted(before, (self.k + dk) * fb, drive)
             values.append(((ctx.response(i, moved) - ctx.response(i, x)) / dk)[:, None])
         return single_columns(ctx.runs, values, ("k",))
 
     def with_fit(self, ctx, setting, coef, cols) -> "Interaction":
         drive = self.drive if self.fitted else setting.get("drive", "voltage")
-        return Interaction({"k": float(self.k + coef[0]), "drive": drive})
+        source = self.source if self.fitted else setting.get("source", "output")
+        return Interaction({"k": float(self.k + coef[0]), "drive": drive, "source": source})
+
+
+def felt(output: np.ndarray, source: str, mu0: float, c_d: float, thermal: np.ndarray) -> np.ndarray:
+    """What the hysterons feel of an ``output`` (um): all of it, or its phase part (bias and thermal term off)."""
+    return output if source == "output" else output - mu0 - c_d * np.asarray(thermal, dtype=float)
 
 
 def shifted(x: np.ndarray, amount: np.ndarray, drive: str) -> np.ndarray:

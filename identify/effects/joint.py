@@ -172,9 +172,9 @@ def _deflection(hyst, model: PreisachModel, effects: tuple[Effect, ...], run: Ru
                 ) -> tuple[np.ndarray, np.ndarray]:
     """The output before the sensor stage with the hysterons feeling ``fb`` (fitting's convention), and
     its equation (22) part."""
-    x, thermal = hysteron_inputs(effects, run, fb)
+    x, thermal = hysteron_inputs(effects, run, fb, model)
     u = hyst(x) + model.c_d * thermal
-    return u + output_contributions(effects, run, u), u
+    return u + output_contributions(effects, run, u, phase=u - model.mu0 - model.c_d * thermal), u
 
 
 def _context(evaluator: _Hysteresis, grid: Grid, model: PreisachModel, effects: tuple[Effect, ...],
@@ -193,7 +193,7 @@ def _context(evaluator: _Hysteresis, grid: Grid, model: PreisachModel, effects: 
         if rows.size < r.n and any(e.name == "interaction" and e.fitted for e in effects):
             fb = feedback_of(r, u)
             u, u0 = _deflection(hyst, model, effects, r, fb)
-        x, th = hysteron_inputs(effects, r, fb)
+        x, th = hysteron_inputs(effects, r, fb, model)
         inputs.append(x)
         thermal.append(th)
         preds.append(u)

@@ -28,10 +28,14 @@ import numpy as np
 from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
-from .base import OUTPUT, Columns, Context, Effect, finite_array, require_params, single_columns
+from .base import OUTPUT, Columns, Context, Effect, finite_array, require_params
 from .bases import ramps
 
 OPTIONS = ("monotone",)
+#: Weights of the roughness penalty (second differences of the values at the knots) the diagnosis tries.
+SMOOTHING = (0.01, 0.1, 1.0, 10.0)
+#: The weight when a model is fitted with it (``rig identify --with``): a light touch.
+FIT_SMOOTHING = 0.01
 
 
 def needs_off_wall(runs: tuple[Run, ...], grid: Grid, name: str) -> str | None:
@@ -69,14 +73,25 @@ class Reversible(Effect):
         return needs_off_wall(runs, grid, self.name)
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"sign": 1.0}, {"sign": -1.0}] if self.monotone else [{}]
+        signs = (1.0, -1.0) if self.monotone else (1.0,)
+        return [{"sign": s, "smoothing": w} for s in signs for w in SMOOTHING]
+
+    def fit_settings_grid(self) -> list[dict[str, float]]:
+        signs = (1.0, -1.0) if self.monotone else (1.0,)
+        return [{"sign": s, "smoothing": FIT_SMOOTHING} for s in signs]
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """Ramps between the walls (coefficients: the increments between knots); the penalty is the squared
+        differences of neighbouring increments (second differences of the values), so a straight line is
+        free."""
         knots = ctx.grid.walls
         sign = setting.get("sign", 1.0)
         labels = tuple(f"step_{k}" for k in range(1, knots.size))
         values = [sign * ramps(knots, r.inputs) for r in ctx.runs]
-        return single_columns(ctx.runs, values, labels, (self.monotone,) * len(labels))
+        k = len(labels)
+        d = np.diff(np.eye(k), n=1, axis=0)
+        return Columns(tuple(values), labels, (self.monotone,) * k, (-1,) * k, d.T @ d if k > 1 else None,
+                       setting.get("smoothing", 0.0))
 
     def with_fit(self, ctx, setting, coef, cols) -> "Reversible":
         knots = ctx.grid.walls
@@ -84,7 +99,7 @@ class Reversible(Effect):
         values = np.concatenate([[0.0], np.cumsum(steps)])
         return Reversible({"knots": knots.tolist(), "values_um": values.tolist(), "monotone": self.monotone})
 
-    def contribution(self, run: Run, u: np.ndarray | None = None) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
         p = self.params
         return np.interp(run.inputs, p["knots"], p["values_um"])
 

@@ -16,7 +16,8 @@ then lag differently) or the **voltage**::
 ``x`` is what the memory curve sees (an equivalent heater voltage), and the
 thermal term follows it too (the expansion follows the beam's
 temperature).  An unknown dwell counts as fully settled.  Parameters:
-``drive``, ``time_constants_s``, ``fractions`` (in [0, 1], fitted by
+``drive`` (``both``: the spectrum twice, once driven by each),
+``time_constants_s``, ``fractions`` (in [0, 1], fitted by
 projected Gauss--Newton steps on their secants: non-negative least squares
 of the linearised problem).
 
@@ -39,8 +40,8 @@ from .base import INPUT, Columns, Context, Effect, finite_array, needs_heater, s
 
 #: The modes' time constants (s): log-spaced from a fast beam to a slow package.
 TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(0.5, 300.0, 10))
-#: What drives the modes (a setting).
-DRIVES = ("power", "voltage")
+#: What drives the modes (a setting): power, voltage, or both (a spectrum of each: a mixed drive).
+DRIVES = ("power", "voltage", "both")
 #: Largest plausible lagging fraction of a mode (a whole rise arriving late).
 MAX_FRACTION = 1.0
 #: Step of the secant in a fraction.
@@ -70,17 +71,33 @@ def slow_mode(run: Run, tau: float, v: np.ndarray | None = None, drive: str = "p
 
 def lagged(run: Run, tau: float | np.ndarray, fraction: float | np.ndarray, v: np.ndarray | None = None,
            drive: str = "power") -> np.ndarray:
-    """The lagged input (V), ``(n,)``, signed as ``v``: modes ``tau`` (s) with ``fraction`` each."""
+    """The lagged input (V), ``(n,)``, signed as ``v``: modes ``tau`` (s) with ``fraction`` each.  With
+    ``drive="both"`` the modes are :func:`mode_drives`: the power-driven ones lag the equivalent voltage
+    through the power, the voltage-driven ones then add their lag in volts."""
     v = run.inputs if v is None else v
-    target = _drive(v, drive)
-    lag = np.zeros(run.n)
-    for t, f in zip(np.atleast_1d(tau), np.atleast_1d(fraction)):
-        if f:
-            lag += f * (slow_mode(run, float(t), v, drive) - target)
-    mixed = target + lag
-    if drive == "power":
-        return np.sign(v) * np.sqrt(np.maximum(mixed, 0.0))
-    return mixed
+    taus, fractions = np.atleast_1d(tau), np.atleast_1d(fraction)
+    drives = mode_drives(drive, taus.size)
+    out = v
+    for which in ("power", "voltage"):
+        mine = [(t, f) for t, f, d in zip(taus, fractions, drives) if d == which and f]
+        if not mine:
+            continue
+        target = _drive(v, which)
+        lag = np.zeros(run.n)
+        for t, f in mine:
+            lag += f * (slow_mode(run, float(t), v, which) - target)
+        if which == "power":
+            out = np.sign(v) * np.sqrt(np.maximum(target + lag, 0.0))
+        else:
+            out = out + lag
+    return out
+
+
+def mode_drives(drive: str, n: int) -> list[str]:
+    """What drives each of ``n`` modes: all ``drive``, or for ``both`` the first half power, the rest voltage."""
+    if drive == "both":
+        return ["power"] * (n // 2) + ["voltage"] * (n - n // 2)
+    return [drive] * n
 
 
 class ThermalLag(Effect):
@@ -130,8 +147,9 @@ class ThermalLag(Effect):
         if self.fitted:
             p = self.params
             return p["drive"], np.asarray(p["time_constants_s"]), np.asarray(p["fractions"])
-        taus = np.asarray(TIME_CONSTANTS_S)
-        return setting.get("drive", "power"), taus, np.zeros(taus.size)
+        drive = setting.get("drive", "power")
+        taus = np.asarray(TIME_CONSTANTS_S * (2 if drive == "both" else 1))
+        return drive, taus, np.zeros(taus.size)
 
     def transform(self, run: Run, x: np.ndarray, feedback: np.ndarray | None = None) -> np.ndarray:
         drive, taus, fractions = self._state({})
@@ -156,7 +174,8 @@ class ThermalLag(Effect):
                 if np.max(np.abs(moved - here)) > 1e-12 * scale:
                     cols[:, j] = (ctx.response(i, moved, moved) - base) / STEP
             values.append(cols)
-        labels = tuple(f"fraction_at_{t:.3g}s" for t in taus)
+        labels = tuple(f"{d}_fraction_at_{t:.3g}s" if drive == "both" else f"fraction_at_{t:.3g}s"
+                       for t, d in zip(taus, mode_drives(drive, taus.size)))
         return single_columns(ctx.runs, values, labels, (True,) * taus.size)
 
     def coefficients(self, ctx: Context) -> np.ndarray:
@@ -168,7 +187,9 @@ class ThermalLag(Effect):
         return ThermalLag({"drive": drive, "time_constants_s": taus.tolist(), "fractions": fractions.tolist()})
 
     def bounds(self) -> dict[str, float]:
-        return {f"fraction_at_{t:.3g}s": MAX_FRACTION for t in TIME_CONSTANTS_S}
+        out = {f"fraction_at_{t:.3g}s": MAX_FRACTION for t in TIME_CONSTANTS_S}
+        out.update({f"{d}_fraction_at_{t:.3g}s": MAX_FRACTION for t in TIME_CONSTANTS_S for d in ("power", "voltage")})
+        return out
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
         p = self.params
