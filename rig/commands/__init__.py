@@ -41,7 +41,7 @@ COMMANDS: tuple[CommandEntry, ...] = (
     CommandEntry("import", "rig.commands.import_", "import_",
                  "Turn FILE (a CSV trace or a MicroMag FORC file) into the session OUT."),
     CommandEntry("predict", "rig.commands.predict", "predict",
-                 "Predict the deflection of FILE (CSV trace) with the model in MODEL_FILE."),
+                 "Predict the output of FILE (a session or a CSV trace) with the model in MODEL_FILE."),
     CommandEntry("report", "rig.commands.report", "report",
                  "Write PNG figures and a Markdown summary of SESSION and a model stored in it."),
     CommandEntry("selftest", "rig.commands.selftest", "selftest",
