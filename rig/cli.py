@@ -75,10 +75,11 @@ def cli() -> None:
     """Preisach hysteresis identification for the VO2 microactuator rig."""
 
 
-def main() -> None:
-    """Console entry point: every error is one line on stderr."""
+def main(args: list[str] | None = None) -> None:
+    """Console entry point (``args``: the arguments, default ``sys.argv[1:]``): every error is one
+    line on stderr; always ends with :class:`SystemExit` carrying the exit code."""
     try:
-        code = cli.main(prog_name="rig", standalone_mode=False)
+        code = cli.main(args=args, prog_name="rig", standalone_mode=False)
     except click.UsageError as exc:
         hint = f" (see '{exc.ctx.command_path} --help')" if exc.ctx is not None else ""
         click.echo(f"Error: {' '.join(exc.format_message().split())}{hint}", err=True)

@@ -123,10 +123,23 @@ def _bench(s: DemoSettings) -> SimulatedBench:
 
 
 def acquire_step(s: DemoSettings, result: DemoResult) -> None:
+    """Record both runs; if the simulated rig fails (an effect so strong that the PSD saturates),
+    remove what this run wrote -- demo sessions, not data -- so that ``--out`` can be used again,
+    and say which setting caused it (exit 2: the simulated device did what it was told)."""
+    from drivers.errors import DriverError
+
     bench = _bench(s)
     t0 = time.perf_counter()
-    simulate_fit_run(bench, result.fit_path)
-    simulate_check_run(bench, result.check_path)
+    try:
+        simulate_fit_run(bench, result.fit_path)
+        simulate_check_run(bench, result.check_path)
+    except DriverError as exc:
+        for path in (result.fit_path, result.check_path):
+            path.unlink(missing_ok=True)
+        setting = f"--effect {s.effect} --strength {s.effect_strength:g}" if s.effect else "the ideal device"
+        raise UserError(f"{setting}: the simulated rig cannot record the demo's runs ({exc}); nothing was "
+                        f"kept in {result.out}; choose a smaller --strength (the demo's own: "
+                        f"{DEMO_STRENGTHS.get(s.effect, 0):g})") from None
     result.acquire_seconds = time.perf_counter() - t0
 
 
@@ -176,9 +189,15 @@ def run_demo(settings: DemoSettings, out: str | Path) -> DemoResult:
     if settings.measurements is not None and not 1 <= settings.measurements <= points:
         raise UserError(f"--measurements {settings.measurements} must be between 1 and the {points} points "
                         f"of the damped oscillation at L={settings.levels}")
+    created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     result = DemoResult(settings, out, out / FIT_SESSION, out / CHECK_SESSION)
-    acquire_step(settings, result)
+    try:
+        acquire_step(settings, result)
+    except UserError:
+        if created and not any(out.iterdir()):
+            out.rmdir()
+        raise
     check = open_run(result.check_path, allow_partial=False)
     result.check_points = int(check.inputs.size)
     shown = identify_step(settings, check, result)

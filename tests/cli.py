@@ -40,12 +40,23 @@ def assert_one_line_error(run: Run, *fragments: str) -> None:
         assert f.lower() in lines[0].lower(), (f, lines[0])
 
 
-def rig_here(*args) -> Run:
-    """Run a rig command in this process: the same streams and exit codes, without
-    the start-up time of a new interpreter (for tests that run many commands)."""
+class _EntryPoint:
+    """``rig.cli.main`` in the shape CliRunner invokes: the console script's own error handling."""
+
+    name = "rig"
+
+    def main(self, args, prog_name=None, **_):
+        from rig.cli import main
+
+        main(list(args))
+
+
+def rig_here(*args, input: str | None = None) -> Run:
+    """Run a rig command in this process, through the console script's entry point: the same
+    streams, messages and exit codes, without the start-up time of a new interpreter (for tests
+    of what a command says and does; the process itself -- signals, start-up -- needs :func:`rig`)."""
     from click.testing import CliRunner
 
-    from rig.cli import cli
-
-    result = CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+    result = CliRunner().invoke(_EntryPoint(), [str(a) for a in args], input=input, catch_exceptions=False,
+                                env={"RIG_DEBUG": ""})
     return Run(result.exit_code, result.stdout, result.stderr)

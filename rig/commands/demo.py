@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import tempfile
 from pathlib import Path
 
@@ -11,6 +12,13 @@ from drivers.sim import EFFECTS, SimParams, SimVO2
 from identify import PreisachModel
 
 from ..output import format_table, print_json
+
+
+def _finite(ctx, param, value):
+    """``--strength``: a finite number >= 0 (click's FloatRange lets NaN through)."""
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter(f"must be a finite number >= 0, got {value}")
+    return value
 
 
 def demo_truth(levels: int) -> PreisachModel:
@@ -29,7 +37,7 @@ def demo_truth(levels: int) -> PreisachModel:
               help="How many of the identification run's measured points the methods are fitted on.")
 @click.option("--effect", type=click.Choice([*EFFECTS, "none"]), default="creep", show_default=True,
               help="The unmodelled effect switched on in the simulated device (none: the ideal device).")
-@click.option("--strength", type=click.FloatRange(min=0), default=None,
+@click.option("--strength", type=click.FloatRange(min=0), default=None, callback=_finite,
               help="The effect's strength [the calibrated demo strength: a gap about ten times the noise].")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--out", "-o", "out_dir", type=click.Path(path_type=Path),
