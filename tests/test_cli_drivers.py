@@ -13,7 +13,7 @@ import sys
 import pytest
 
 from .benchsim import HEADER, REGISTER_MAP
-from .cli import assert_one_line_error, rig
+from .cli import assert_one_line_error, rig, rig_here
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -95,4 +95,31 @@ def test_bad_invocations_are_one_line_errors(tmp_path):
         busy.bind(("127.0.0.1", 0))
         busy.listen(1)
         port = busy.getsockname()[1]
-        assert_one_line_error(rig("serve-sim", "--modbus", f"127.0.0.1:{port}", timeout=30), "cannot serve modbus")
+        assert_one_line_error(rig("serve-sim", "--modbus", f"127.0.0.1:{port}", timeout=30),
+                              f"--modbus 127.0.0.1:{port}: the address is already in use", "port 0")
+
+
+def test_an_address_in_use_is_named_with_the_port_0_way_out(tmp_path):
+    # issue 17, finding 7: pymodbus said "Could not start listen, please check address"
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen(1)
+        port = busy.getsockname()[1]
+        for option, value in (("--modbus", f"127.0.0.1:{port}"), ("--modbus-rtu", f"127.0.0.1:{port}"),
+                              ("--serial", f"socket://127.0.0.1:{port}")):
+            run = rig_here("serve-sim", option, value)
+            assert_one_line_error(run, f"{option} {value}: the address is already in use", f"{option} ",
+                                  ":0", "prints the port it chose")
+            assert "check address" not in run.err
+        config = tmp_path / "rig.toml"
+        config.write_text(HEADER.format(driver="modbus") + f"[modbus]\nport = {port}\n" + REGISTER_MAP)
+        assert_one_line_error(rig_here("serve-sim", "--config", config), "already in use", "[modbus] port = 0")
+    # port 0: the system's choice, printed
+    proc, endpoints = serve_sim("--modbus", "127.0.0.1:0")
+    try:
+        host, chosen = endpoints["modbus"].rsplit(":", 1)
+        assert host == "127.0.0.1" and int(chosen) > 0
+        with socket.create_connection(("127.0.0.1", int(chosen)), timeout=5):
+            pass
+    finally:
+        assert stop(proc)[0] == 0
