@@ -37,11 +37,10 @@ def in_use(host: str, port: int) -> bool:
 
 def taken_message(option: str, host: str, port: int) -> str:
     """The one-line refusal for an address in use, with the port-0 way out."""
-    config_key = "[serial] url = 'socket://HOST:0'" if option == "--serial" else "[modbus] port = 0"
     scheme = "socket://" if option == "--serial" else ""
     return (f"{option} {scheme}{host}:{port}: the address is already in use (another program, perhaps "
             f"another rig serve-sim, listens there); choose a free port, or port 0 to let the system pick "
-            f"one ({option} {scheme}{host}:0, or {config_key} in rig.toml): serve-sim prints the port it chose")
+            f"one ({option} {scheme}{host}:0): serve-sim prints the port it chose, for the clients' rig.toml")
 
 
 def check_free(endpoints: dict[str, tuple[str, int] | None]) -> None:

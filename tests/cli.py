@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -20,11 +21,15 @@ class Run:
         return json.loads(self.out)
 
 
-def rig(*args, timeout: float = 120, input: str | None = None) -> Run:
+def rig_command() -> list[str]:
+    """The installed ``rig`` console script of this environment (else ``python -m rig``)."""
     exe = shutil.which("rig", path=os.path.dirname(sys.executable)) or shutil.which("rig")
-    cmd = [exe] if exe else [sys.executable, "-m", "rig"]
+    return [exe] if exe else [sys.executable, "-m", "rig"]
+
+
+def rig(*args, timeout: float = 120, input: str | None = None) -> Run:
     p = subprocess.run(
-        [*cmd, *map(str, args)], capture_output=True, text=True, timeout=timeout, input=input,
+        [*rig_command(), *map(str, args)], capture_output=True, text=True, timeout=timeout, input=input,
         env={**os.environ, "RIG_DEBUG": ""},
     )
     return Run(p.returncode, p.stdout, p.stderr)
@@ -60,3 +65,23 @@ def rig_here(*args, input: str | None = None) -> Run:
     result = CliRunner().invoke(_EntryPoint(), [str(a) for a in args], input=input, catch_exceptions=False,
                                 env={"RIG_DEBUG": ""})
     return Run(result.exit_code, result.stdout, result.stderr)
+
+
+def serve_sim(*args, cwd=None):
+    """Start ``rig serve-sim ARGS --json`` in its own process; ``(process, endpoints)`` once it listens."""
+    proc = subprocess.Popen(
+        [*rig_command(), "serve-sim", *map(str, args), "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, cwd=cwd,
+    )
+    line = proc.stdout.readline()
+    if not line:
+        proc.wait(10)
+        raise AssertionError(proc.stderr.read())
+    return proc, json.loads(line)
+
+
+def stop(proc):
+    """Ctrl-C a ``serve_sim`` process; its exit code and stderr."""
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=20)
+    return proc.returncode, err

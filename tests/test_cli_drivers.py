@@ -2,40 +2,17 @@
 
 from __future__ import annotations
 
-import json
-import os
-import shutil
-import signal
 import socket
-import subprocess
 import sys
 
 import pytest
 
 from .benchsim import HEADER, REGISTER_MAP
-from .cli import assert_one_line_error, rig, rig_here
+from .cli import assert_one_line_error, rig, rig_here, serve_sim, stop
 
 pytestmark = pytest.mark.timeout(120)
 
 SELFTEST_KEYS = {"driver", "connected", "heater_ok", "sensor_ok", "deflection_um", "safe_state"}
-
-
-def serve_sim(*args):
-    exe = shutil.which("rig", path=os.path.dirname(sys.executable)) or "rig"
-    proc = subprocess.Popen(
-        [exe, "serve-sim", *args, "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )
-    line = proc.stdout.readline()
-    if not line:
-        proc.wait(10)
-        raise AssertionError(proc.stderr.read())
-    return proc, json.loads(line)
-
-
-def stop(proc):
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=20)
-    return proc.returncode, err
 
 
 def test_selftest_on_the_built_in_simulated_device():
@@ -113,7 +90,7 @@ def test_an_address_in_use_is_named_with_the_port_0_way_out(tmp_path):
             assert "check address" not in run.err
         config = tmp_path / "rig.toml"
         config.write_text(HEADER.format(driver="modbus") + f"[modbus]\nport = {port}\n" + REGISTER_MAP)
-        assert_one_line_error(rig_here("serve-sim", "--config", config), "already in use", "[modbus] port = 0")
+        assert_one_line_error(rig_here("serve-sim", "--config", config), "already in use", "--modbus 127.0.0.1:0")
     # port 0: the system's choice, printed
     proc, endpoints = serve_sim("--modbus", "127.0.0.1:0")
     try:
