@@ -1,0 +1,38 @@
+"""The house: what the repository holds and how it is installed (issue 17, findings 1-2 and "The house")."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from .forcfiles import REPO, SHARED_FORC
+
+#: Directories that are not the project's own files.
+NOT_OURS = {".git", ".ci-venv", ".venv", "__pycache__", ".pytest_cache", ".hypothesis", "build", "dist"}
+#: An absolute path on a developer's or the CI's machine.
+MACHINE_PATH = re.compile(r"(?<![\w.~-])/(?:work|home|root|Users)/[\w.-]+")
+
+
+def project_text_files():
+    for path in REPO.rglob("*"):
+        parts = set(path.relative_to(REPO).parts)
+        if parts & NOT_OURS or any(p.endswith(".egg-info") for p in parts) or not path.is_file():
+            continue
+        if path.suffix in {".py", ".md", ".toml", ".cfg", ".txt", ".sh"} or path.name == "run":
+            yield path
+
+
+def test_no_file_names_an_absolute_machine_path():
+    # issue 17, finding 2: an absolute path to the shared data made the real-data tests skip silently in
+    # every other clone
+    found = {}
+    for path in project_text_files():
+        hits = MACHINE_PATH.findall(path.read_text(encoding="utf-8", errors="replace"))
+        if hits:
+            found[str(path.relative_to(REPO))] = sorted(set(hits))
+    assert not found, found
+
+
+def test_the_shared_measurement_is_found_relative_to_the_repository():
+    assert SHARED_FORC == REPO.parent / "shared" / "data" / "forc" / "MD00-2361.forc"
+    assert SHARED_FORC.is_file(), f"{SHARED_FORC} is missing: CI and every clone have ../shared beside the repository"
