@@ -36,3 +36,24 @@ def test_no_file_names_an_absolute_machine_path():
 def test_the_shared_measurement_is_found_relative_to_the_repository():
     assert SHARED_FORC == REPO.parent / "shared" / "data" / "forc" / "MD00-2361.forc"
     assert SHARED_FORC.is_file(), f"{SHARED_FORC} is missing: CI and every clone have ../shared beside the repository"
+
+
+def test_benchmarks_are_scripts_not_an_installed_package(tmp_path):
+    # the house: benchmarks/ was installed as a top-level package because rig bench imported it
+    import subprocess
+    import sys
+    import tomllib
+
+    packages = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]["find"]
+    assert not any(p.startswith("benchmarks") for p in packages["include"])
+    assert not (REPO / "benchmarks" / "__init__.py").exists()
+    code = "import importlib.util, sys; sys.stdout.write(str(importlib.util.find_spec('benchmarks')))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60)
+    assert done.stdout == "None", done.stdout + done.stderr
+    # every script still runs from its file (imports resolve to the installed packages)
+    for script in sorted((REPO / "benchmarks").glob("*.py")):
+        if "argparse" not in script.read_text():
+            continue
+        done = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True,
+                              cwd=tmp_path, timeout=120)
+        assert done.returncode == 0 and "usage" in done.stdout, (script.name, done.stderr[-500:])

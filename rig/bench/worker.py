@@ -1,4 +1,4 @@
-"""Measure one (case, method, solver) in this process; run as ``python -m benchmarks.worker SPEC``.
+"""Measure one (case, method, solver) in this process; run as ``python -m rig.bench.worker SPEC``.
 
 ``SPEC`` is a JSON object ``{"levels", "measurements", "seed", "method",
 "solver", "repeats", "budget_s"}``; ``solver`` is ``"fast"`` (the method's
