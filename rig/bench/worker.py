@@ -56,6 +56,8 @@ def measure(spec: dict) -> dict:
 
     if spec["solver"] == "dense":
         import cvxpy  # noqa: F401  (the dense path imports it on first use; not part of the timing)
+    import scipy.fft  # noqa: F401  (nor are the imports the fast paths make on first use)
+    import scipy.optimize  # noqa: F401
 
     baseline = _maxrss_mb()
     seconds: list[float] = []
