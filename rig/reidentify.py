@@ -24,6 +24,7 @@ its writer).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -233,12 +234,14 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
     )
 
 
-def fit_job(job: IdentifyJob) -> FitReport:
-    """Fit one planned job (runs in a worker process in batches); the model carries the run's units."""
+def fit_job(job: IdentifyJob, progress: Callable[[str], None] | None = None) -> FitReport:
+    """Fit one planned job (runs in a worker process in batches); the model carries the run's units.
+    ``progress``: see :func:`identify.fit.fit_sequence`."""
     try:
         report = fit_sequence(job.grid, job.inputs, job.outputs, job.method, rows=job.rows,
                               thermal_term=job.thermal_term,
-                              settings=None if job.solver is None else {"solver": job.solver}, curves=job.curves)
+                              settings=None if job.solver is None else {"solver": job.solver}, curves=job.curves,
+                              progress=progress)
     except IdentifyError as exc:
         if job.label is None:
             raise

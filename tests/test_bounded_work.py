@@ -87,3 +87,71 @@ def test_confirmation_lets_a_job_over_the_limits_run():
         refuse_unless_confirmed("rig acquire", over, yes=False)
     refuse_unless_confirmed("rig acquire", over, yes=True)
     refuse_unless_confirmed("rig acquire", [], yes=False)
+
+
+@pytest.fixture
+def session(tmp_path):
+    truth = known_model(6, v_min=0.0, v_max=3.0)
+    path, _ = write_run(tmp_path / "s.h5", truth, Excitation.damped(truth.grid))
+    return path
+
+
+def test_a_fit_of_50_million_parameters_is_refused_before_it_starts(session, monkeypatch):
+    def never(*args, **kwargs):
+        raise AssertionError("the fit started")
+
+    monkeypatch.setattr("rig.reidentify.fit_sequence", never)
+    run = rig_here("identify", session, "--levels", 10000, "--no-store")
+    assert_one_line_error(run, f"rig identify {session}: ", "estimated memory", "(limit 4 GB)", "--yes")
+    # --force (replace a stored model) is not the confirmation: --yes is
+    assert "--force" not in run.err
+
+
+def test_a_long_fit_is_announced_with_its_estimate(session, monkeypatch):
+    monkeypatch.setattr("rig.commands.identify.PROGRESS_AFTER_S", 0.0)
+    monkeypatch.setattr("rig.budget.identification.PROGRESS_AFTER_S", 0.0)
+    run = rig_here("identify", session, "--method", "smooth_nn", "--levels", 8, "--no-store", "--json")
+    assert run.code == 0, run.err
+    assert f"{session}: smooth_nn on L = 8 (38 parameters), 23 measured of 23 points: about " in run.err
+    assert "(estimated)" in run.err and run.json()["levels"] == 8
+
+
+def test_identify_reports_its_stages_and_the_progress_line_counts_down(monkeypatch):
+    import io
+    import time
+
+    from identify import Grid, damped_oscillation
+    from identify.fit import fit_sequence
+    from rig.fit_progress import FitProgress, fit_in_process
+
+    grid = Grid(4, 0.0, 1.0)
+    v = damped_oscillation(grid, thermal_term=True)
+    stages = []
+    fit_sequence(grid, v, known_model(4, 0.0, 1.0).predict(v), "ls", progress=stages.append)
+    assert stages == ["fitting", "scoring"]  # identify only calls the hook; it prints nothing
+
+    stream = io.StringIO()
+    with FitProgress("rig identify: s.h5", 10.0, stream=stream, enabled=True) as shown:
+        shown.stage("fitting")
+        first = shown.line()
+        time.sleep(1.1)  # at least one redraw by the timer
+    drawn = stream.getvalue()
+    assert "rig identify: s.h5: fitting, " in first and "about 10 s left" in first
+    assert drawn.count("\r") >= 3 and drawn.endswith("\r")  # redrawn, then erased
+    late = FitProgress("x", 1.0, stream=io.StringIO(), enabled=True)
+    assert late.line(now=late._start + 5.0).endswith("taking longer than estimated")
+
+    # only the fits estimated to be long get the line
+    class Cost:
+        def __init__(self, seconds):
+            self.seconds = seconds
+
+    calls = []
+
+    def fit(job, progress=None):
+        calls.append((job, progress is not None))
+        return job
+
+    assert fit_in_process(fit, ["quick", "slow"], [Cost(0.1), Cost(60.0)], ["a", "b"], enabled=False) == ["quick",
+                                                                                                          "slow"]
+    assert calls == [("quick", False), ("slow", True)]
