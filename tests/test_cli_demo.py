@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 import hashlib
 
 from sessions import read_session
@@ -15,6 +17,7 @@ def _digest(path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+@pytest.mark.slow
 def test_demo_acquires_identifies_diagnoses_and_reports(tmp_path):
     out = tmp_path / "demo"
     run = rig("demo", "--levels", 8, "--measurements", 30, "--strength", 0.1, "--out", out, "--json")
@@ -49,6 +52,7 @@ def test_demo_acquires_identifies_diagnoses_and_reports(tmp_path):
             assert p.split("/")[-1] in summary
 
 
+@pytest.mark.slow
 def test_demo_never_overwrites_an_earlier_run(tmp_path):
     out = tmp_path / "demo"
     assert rig_here("demo", "--levels", 4, "--measurements", 10, "--effect", "none", "--out", out).code == 0
@@ -61,6 +65,7 @@ def test_demo_never_overwrites_an_earlier_run(tmp_path):
     assert_one_line_error(rig_here("demo", "--effect", "gremlins"), "gremlins")
 
 
+@pytest.mark.slow
 def test_a_strength_the_device_cannot_take_is_bad_input_and_leaves_out_usable(tmp_path):
     # issue 17, finding 6: NaN was an internal error (exit 1); 1e6 left a failed session behind
     # that made every later demo refuse the same --out

@@ -216,6 +216,7 @@ def test_a_drift_of_the_check_run_is_found_and_how_far_it_goes():
     assert d.verdict_without(["baseline_drift"]).status in ("unexplained", "ambiguous")
 
 
+@pytest.mark.slow
 def test_no_effect_is_no_gap_and_bad_check_points_are_reported_not_fatal():
     fit, check = synthetic(GRID, seed=3)
     d = diagnose([fit], [check], GRID)

@@ -16,7 +16,7 @@ import pytest
 
 from drivers.config import load_config
 
-from .cli import rig, serve_sim, stop
+from .cli import serve_sim, stop, rig_here
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted((REPO / "docs").glob("*.toml"))
@@ -37,6 +37,7 @@ def test_examples_live_only_under_docs():
     assert {p.name for p in EXAMPLES} >= {"rig.toml", "rig-serial.toml"}
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 @pytest.mark.parametrize("example", EXAMPLES, ids=lambda p: p.name)
 def test_each_example_parses_and_passes_selftest_against_serve_sim(example, tmp_path):
@@ -50,7 +51,7 @@ def test_each_example_parses_and_passes_selftest_against_serve_sim(example, tmp_
         serial = endpoints.get("serial", ":0").rsplit(":", 1)[1]
         client = tmp_path / f"client-{example.name}"
         client.write_text(on_ports(example.read_text(encoding="utf-8"), port, serial), encoding="utf-8")
-        run = rig("selftest", "--config", client, "--json")
+        run = rig_here("selftest", "--config", client, "--json")
         assert run.code == 0, run.err
         report = run.json()
         assert report["passed"] and report["driver"] == cfg.driver and report["safe_state"]

@@ -93,6 +93,7 @@ def test_nrmse_is_a_fraction_in_tables_json_summary_and_figures(report):
         assert not any("%" in t for t in texts_of(fig))
 
 
+@pytest.mark.slow
 def test_the_diagnosis_figures_share_the_house_style(tmp_path):
     from rig.diagnosis.demo import diagnose_simulated
     from rig.plots.diagnosis import candidates_figure, where_figure

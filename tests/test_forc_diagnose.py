@@ -79,6 +79,7 @@ def _forc_runs(t_s=None):
     return runs
 
 
+@pytest.mark.slow
 def test_effects_that_cannot_act_on_forc_data_are_not_applicable():
     fit, check = _forc_runs()
     d = diagnose([fit], [check], GRID)
@@ -107,6 +108,7 @@ def forc_session(tmp_path):
     return out
 
 
+@pytest.mark.slow
 def test_rig_diagnose_splits_a_forc_session_into_even_and_odd_curves(forc_session, tmp_path):
     run = rig_here("diagnose", "--fit", forc_session, "--check", forc_session, "--fit-curves", "even",
                    "--check-curves", "odd", "--levels", 8, "--json", "--out", tmp_path / "fig")
@@ -153,6 +155,7 @@ def test_rig_diagnose_refusals_on_forc_sessions(forc_session, tmp_path):
     assert forc_session.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_rig_diagnose_on_the_shared_measurement(tmp_path):
     session = tmp_path / "md.h5"
     assert rig_here("import", "--format", "micromag", shared_forc(), "--out", session).code == 0
