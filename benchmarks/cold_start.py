@@ -10,7 +10,9 @@ shared machine hits every command alike) and the median is reported, with
 its ratio to two references measured in the same rounds: ``python -c
 pass`` (the interpreter alone) and ``python -c 'import numpy'``.
 
-Warm figures run the same ``rig identify`` in this process after a first
+Each cold figure has the process's own CPU time (user + system, median)
+beside the wall time: on a shared machine it stays close to the wall time
+of a quiet one.  Warm figures run the same ``rig identify`` in this process after a first
 run (imports done, per-grid caches filled), through the same entry point
 (:func:`rig.cli.main`), and the fit alone (:func:`rig.reidentify.fit_job`).
 
@@ -26,6 +28,7 @@ import contextlib
 import io
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -44,19 +47,30 @@ def rig_executable() -> list[str]:
     return [exe] if exe else [sys.executable, "-m", "rig"]
 
 
-def run_once(argv: list[str], cwd: Path) -> float:
-    """Wall time of one fresh process running ``argv`` (s); a failure stops the benchmark."""
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run_once(argv: list[str], cwd: Path) -> tuple[float, float]:
+    """Wall time and CPU time (user + system) of one fresh process running ``argv`` (s).
+
+    The CPU time is what the process itself used: on a machine shared with
+    other work it stays close to the wall time the same command takes on a
+    quiet one.  A failure stops the benchmark.
+    """
+    cpu0 = _children_cpu()
     start = time.perf_counter()
     done = subprocess.run(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     elapsed = time.perf_counter() - start
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(argv)} failed ({done.returncode}): {done.stderr.strip()}")
-    return elapsed
+    return elapsed, _children_cpu() - cpu0
 
 
-def cold(commands: dict[str, list[str]], repeats: int, cwd: Path) -> dict[str, list[float]]:
-    """Every command ``repeats`` times, in interleaved rounds; the wall times of each (s)."""
-    times: dict[str, list[float]] = {name: [] for name in commands}
+def cold(commands: dict[str, list[str]], repeats: int, cwd: Path) -> dict[str, list[tuple[float, float]]]:
+    """Every command ``repeats`` times, in interleaved rounds; (wall, CPU) seconds of each run."""
+    times: dict[str, list[tuple[float, float]]] = {name: [] for name in commands}
     for _ in range(repeats):
         for name, argv in commands.items():
             times[name].append(run_once(argv, cwd))
@@ -106,7 +120,7 @@ def main() -> None:
         cwd = Path(tmp)
         session = cwd / "s.h5"
         subprocess.run([*rig, "acquire", "--out", str(session), "--no-progress"], check=True,
-                       stdout=subprocess.DEVNULL)
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         commands = {
             "python -c pass": [sys.executable, "-c", "pass"],
             "python -c 'import numpy'": [sys.executable, "-c", "import numpy"],
@@ -118,15 +132,16 @@ def main() -> None:
         times = cold(commands, args.repeats, cwd)
         warm_figures = {m: warm(session, m, args.repeats) for m in methods}
     load_after = os.getloadavg()
-    medians = {name: statistics.median(t) for name, t in times.items()}
+    medians = {name: statistics.median(w for w, _ in t) for name, t in times.items()}
+    cpu = {name: statistics.median(c for _, c in t) for name, t in times.items()}
     python, numpy = medians["python -c pass"], medians["python -c 'import numpy'"]
     result = {
         "repeats": args.repeats,
         "cores": os.cpu_count(),
         "load_before": load_before,
         "load_after": load_after,
-        "cold": {name: {"median_s": medians[name], "min_s": min(t), "max_s": max(t),
-                        "vs_python": medians[name] / python, "vs_numpy": medians[name] / numpy}
+        "cold": {name: {"median_s": medians[name], "min_s": min(w for w, _ in t), "max_s": max(w for w, _ in t),
+                        "cpu_s": cpu[name], "vs_python": medians[name] / python, "vs_numpy": medians[name] / numpy}
                  for name, t in times.items()},
         "warm": {m: {"command_s": w, "fit_s": f} for m, (w, f) in warm_figures.items()},
     }
@@ -136,9 +151,10 @@ def main() -> None:
     print(f"load average before {load_before[0]:.2f} {load_before[1]:.2f} {load_before[2]:.2f}, "
           f"after {load_after[0]:.2f} {load_after[1]:.2f} {load_after[2]:.2f}; {os.cpu_count()} cores; "
           f"median of {args.repeats} fresh processes per command, interleaved")
-    print(f"{'cold (fresh process)':48s} {'median s':>9s} {'min s':>7s} {'max s':>7s} {'x python':>9s} {'x numpy':>8s}")
+    print(f"{'cold (fresh process)':48s} {'median s':>9s} {'min s':>7s} {'max s':>7s} {'cpu s':>6s} "
+          f"{'x python':>9s} {'x numpy':>8s}")
     for name, r in result["cold"].items():
-        print(f"{name:48s} {r['median_s']:9.3f} {r['min_s']:7.3f} {r['max_s']:7.3f} "
+        print(f"{name:48s} {r['median_s']:9.3f} {r['min_s']:7.3f} {r['max_s']:7.3f} {r['cpu_s']:6.3f} "
               f"{r['vs_python']:9.2f} {r['vs_numpy']:8.2f}")
     print(f"\n{'warm (in process, after a first run)':48s} {'command s':>9s} {'fit s':>7s}")
     for m, r in result["warm"].items():

@@ -48,7 +48,7 @@ def test_identify_imports_neither_the_drivers_nor_the_plots_nor_the_dense_solver
     assert rig_here("acquire", "--levels", "6", "--out", session, "--no-progress").code == 0
     loaded = imported_by(["identify", str(session), "--method", "cs_nodct", "--no-store"], tmp_path)
     assert {"numpy", "scipy", "h5py", "identify", "sessions"} <= loaded  # it did run
-    unwanted = {"drivers", "pymodbus", "serial", "matplotlib", "cvxpy", "scipy.optimize", "scipy.stats",
+    unwanted = {"drivers", "pymodbus", "serial", "matplotlib", "cvxpy", "tqdm", "scipy.optimize", "scipy.stats",
                 "scipy.fft", "scipy.interpolate", "scipy.spatial"}
     assert not loaded & unwanted, sorted(loaded & unwanted)
 
