@@ -5,9 +5,12 @@ the applied points ``n`` and the measured rows ``M``, in a way that depends
 on the method and its path (README, *Speed and scale*).  :func:`estimate_fit`
 is a rough model of each path, with constants set from measurements on the
 2-core development machine (``benchmarks/identify_cost.py`` prints the
-measured figures beside the estimates): trust it to within a factor of a
-few, which is what it is for -- telling a two-second fit from a two-hour
-one, and 100 MB from 40 GB, before either starts.
+measured figures beside the estimates).  The time of an active-set or
+iterative solver depends on the data (how many cells the fit leaves free),
+not only on the sizes: trust the time to within a factor of ten either way
+and the memory to within a factor of three, which is what it is for --
+telling a two-second fit from a two-hour one, and 100 MB from 40 GB, before
+either starts.
 
 The limits (README, *Bounded work*), beyond which ``rig identify`` refuses
 unless ``--yes``: :data:`MAX_SECONDS` estimated fitting time per file and
@@ -93,10 +96,10 @@ def _seconds_and_bytes(method: str, p: int, n: int, m: int, square: bool) -> tup
         if min(m, p) * p <= LS_DENSE_ENTRIES:  # scipy's NNLS on dense rows
             return 2e-9 * m * p * min(m, p), 24.0 * min(m, p) * p
         # Lawson-Hanson on operator products: one product per step, a thin QR of the passive columns
-        return 1e-7 * m * p, 8.0 * (m * min(m, p, 2000) + 4 * p)
+        return 1e-7 * m * p + 3e-10 * m * min(m, p) ** 2, 8.0 * (m * min(m, p, 2000) + 4 * p)
     if method == "smooth_nn":
         if cells <= SMOOTH_NORMAL_CELLS:  # dense normal equations, GCV's eigendecomposition, the QP
-            return 2e-9 * p ** 3 + 5e-8 * m * p + 0.3, 64.0 * p * p
+            return 2e-9 * p ** 3 + 3e-7 * m * p + 0.3, 64.0 * p * p + 8.0 * min(m * p, 4e6)
         if square:  # output space: sparse factorisations along the weight path, then Clarabel
             return 5e-6 * n ** 1.5, 2e3 * n
         # L-BFGS-B on operator products along a hold-out path of weights
