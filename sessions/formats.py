@@ -13,7 +13,7 @@ import enum
 import os
 from pathlib import Path
 
-from .errors import DataFileError
+from .textfiles import reading
 
 #: The 8-byte HDF5 format signature; HDF5 looks for it at offset 0, 512, 1024, 2048, ...
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -59,21 +59,14 @@ def _is_text(head: bytes) -> bool:
 def detect(path: str | os.PathLike) -> FileKind:
     """The kind of file at ``path``, from its content; :class:`DataFileError` if it cannot be read."""
     path = Path(path)
-    try:
-        with path.open("rb") as fh:
-            size = os.fstat(fh.fileno()).st_size
-            if size == 0:
-                return FileKind.EMPTY
-            if _has_hdf5_signature(fh, size):
-                return FileKind.HDF5
-            fh.seek(0)
-            head = fh.read(SNIFF_BYTES)
-    except FileNotFoundError:
-        raise DataFileError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise DataFileError(f"{path}: is a directory, not a data file") from None
-    except OSError as exc:
-        raise DataFileError(f"{path}: cannot read ({exc.strerror})") from None
+    with reading(path, "a data file"), path.open("rb") as fh:
+        size = os.fstat(fh.fileno()).st_size
+        if size == 0:
+            return FileKind.EMPTY
+        if _has_hdf5_signature(fh, size):
+            return FileKind.HDF5
+        fh.seek(0)
+        head = fh.read(SNIFF_BYTES)
     if not _is_text(head):
         return FileKind.BINARY
     start = head.lstrip(b"\xef\xbb\xbf \t\r\n")

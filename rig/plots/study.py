@@ -92,30 +92,33 @@ def _legend_below(fig: Figure, ax: Axes) -> None:
     fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=LEGEND_SIZE, frameon=False)
 
 
+def _sweep_figure(summary: StudySummary, points: list[PointSummary], key: str,
+                  panels: list[tuple[tuple[str, str], str]], shape: tuple[int, int], size: tuple[float, float],
+                  title: str) -> Figure:
+    """Every method's ``panels`` (metric, title) against the swept ``key``, one legend below them all."""
+    fig, axes = new_figure(*shape, size=size)
+    for ax, (metric, panel_title) in zip(axes.flat, panels):
+        _sweep(ax, points, key, metric, panel_title)
+    fig.suptitle(title)
+    _legend_below(fig, axes.flat[0])
+    return fig
+
+
 def measurements_figure(summary: StudySummary) -> Figure:
     """Figures 4a, 4b, 5b and 6: every method's errors and fit time against M."""
-    pts = summary.measurement_sweep
-    fig, axes = new_figure(2, 2, size=(11.0, 8.0))
-    _sweep(axes[0, 0], pts, "measurements", DENSITY_RMSE, "figure 4a: density")
-    _sweep(axes[0, 1], pts, "measurements", MODEL_RMSE, "figure 4b: modelling error")
-    _sweep(axes[1, 0], pts, "measurements", SECONDS, "figure 5b: fit time")
-    _sweep(axes[1, 1], pts, "measurements", VALIDATION_RMSE, "figure 6: validation error")
-    fig.suptitle(f"{summary.setup.profile} profile, D = {summary.setup.noise:g} {UM}, "
-                 f"{summary.setup.runs} runs per M")
-    _legend_below(fig, axes[0, 0])
-    return fig
+    panels = [(DENSITY_RMSE, "figure 4a: density"), (MODEL_RMSE, "figure 4b: modelling error"),
+              (SECONDS, "figure 5b: fit time"), (VALIDATION_RMSE, "figure 6: validation error")]
+    return _sweep_figure(summary, summary.measurement_sweep, "measurements", panels, (2, 2), (11.0, 8.0),
+                         f"{summary.setup.profile} profile, D = {summary.setup.noise:g} {UM}, "
+                         f"{summary.setup.runs} runs per M")
 
 
 def noise_figure(summary: StudySummary) -> Figure:
     """Figure 5a: density and modelling error against the noise amplitude D."""
-    pts = sorted(summary.noise_sweep, key=lambda q: q.noise)
-    fig, axes = new_figure(1, 2, size=(11.0, 4.6))
-    _sweep(axes[0, 0], pts, "noise", DENSITY_RMSE, "figure 5a: density")
-    _sweep(axes[0, 1], pts, "noise", MODEL_RMSE, "modelling error")
-    fig.suptitle(f"{summary.setup.profile} profile, M = {summary.setup.measurements}, "
-                 f"{summary.setup.runs} runs per D")
-    _legend_below(fig, axes[0, 0])
-    return fig
+    panels = [(DENSITY_RMSE, "figure 5a: density"), (MODEL_RMSE, "modelling error")]
+    return _sweep_figure(summary, sorted(summary.noise_sweep, key=lambda q: q.noise), "noise", panels, (1, 2),
+                         (11.0, 4.6), f"{summary.setup.profile} profile, M = {summary.setup.measurements}, "
+                                      f"{summary.setup.runs} runs per D")
 
 
 def study_figures(summary: StudySummary) -> dict[str, Figure]:
