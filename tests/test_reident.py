@@ -4,6 +4,7 @@ import importlib
 import json
 import os
 import shutil
+import time
 
 import numpy as np
 import pytest
@@ -182,6 +183,7 @@ def test_a_session_being_recorded(tmp_path):
 def job_pid(x):
     if x == "fail":
         raise IdentifyError("job says no")
+    time.sleep(0.25)  # long enough that a worker started late still gets jobs (instant jobs: one took all 8)
     return x, os.getpid()
 
 
