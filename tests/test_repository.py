@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -14,12 +15,12 @@ MACHINE_PATH = re.compile(r"(?<![\w.~-])/(?:work|home|root|Users)/[\w.-]+")
 
 
 def project_text_files():
-    for path in REPO.rglob("*"):
-        parts = set(path.relative_to(REPO).parts)
-        if parts & NOT_OURS or any(p.endswith(".egg-info") for p in parts) or not path.is_file():
-            continue
-        if path.suffix in {".py", ".md", ".toml", ".cfg", ".txt", ".sh"} or path.name == "run":
-            yield path
+    for root, dirs, files in os.walk(REPO):
+        dirs[:] = [d for d in dirs if d not in NOT_OURS and not d.endswith(".egg-info")]  # not into venvs
+        for name in files:
+            path = Path(root) / name
+            if path.suffix in {".py", ".md", ".toml", ".cfg", ".txt", ".sh"} or name == "run":
+                yield path
 
 
 def test_no_file_names_an_absolute_machine_path():
