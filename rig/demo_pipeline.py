@@ -26,6 +26,7 @@ behind ``rig acquire``, ``rig identify``, ``rig diagnose`` and ``rig report``.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -180,9 +181,11 @@ def report_step(record: ModelRecord, check: Recording, out: Path, result: DemoRe
     result.figures += [p for p in written if p.suffix == ".png"]
 
 
-def run_demo(settings: DemoSettings, out: str | Path) -> DemoResult:
+def run_demo(settings: DemoSettings, out: str | Path,
+             progress: Callable[[str], None] | None = None) -> DemoResult:
     """Acquire, identify, diagnose and report into the directory ``out`` (created; refused when it
-    already holds a demo's sessions)."""
+    already holds a demo's sessions).  ``progress`` is called with each step's name as it starts."""
+    step = progress or (lambda name: None)
     out = Path(out)
     _fresh(out)
     points = Excitation.damped(_bench(settings).grid(), True).inputs.size
@@ -193,6 +196,7 @@ def run_demo(settings: DemoSettings, out: str | Path) -> DemoResult:
     out.mkdir(parents=True, exist_ok=True)
     result = DemoResult(settings, out, out / FIT_SESSION, out / CHECK_SESSION)
     try:
+        step("1/4 acquiring")
         acquire_step(settings, result)
     except UserError:
         if created and not any(out.iterdir()):
@@ -200,7 +204,10 @@ def run_demo(settings: DemoSettings, out: str | Path) -> DemoResult:
         raise
     check = open_run(result.check_path, allow_partial=False)
     result.check_points = int(check.inputs.size)
+    step("2/4 identifying")
     shown = identify_step(settings, check, result)
+    step("3/4 diagnosing")
     diagnose_step(out, result)
+    step("4/4 reporting")
     report_step(shown, check, out, result)
     return result

@@ -1,4 +1,4 @@
-"""A status line for a long fit: what it is doing, how long it has run, and about how long is left.
+"""A status line for a long fit (or ``rig demo``): what it is doing, how long it has run, about how long is left.
 
 ``identify`` stays pure: :func:`identify.fit.fit_sequence` only calls the
 ``progress`` callback it is given with the stage it starts.  This module is
@@ -51,7 +51,8 @@ class FitProgress:
         spent = (time.monotonic() if now is None else now) - self._start
         left = self.estimate_s - spent
         when = f"about {format_seconds(left)} left" if left > 0 else "taking longer than estimated"
-        return f"{self.label}: {self.stage_name}, {format_seconds(spent)}, {when}"
+        elapsed = f"{spent:.1f} s" if spent < 60 else format_seconds(spent)
+        return f"{self.label}: {self.stage_name}, {elapsed}, {when}"
 
     def _draw(self) -> None:
         if not self.enabled:

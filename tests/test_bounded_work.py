@@ -155,3 +155,12 @@ def test_identify_reports_its_stages_and_the_progress_line_counts_down(monkeypat
     assert fit_in_process(fit, ["quick", "slow"], [Cost(0.1), Cost(60.0)], ["a", "b"], enabled=False) == ["quick",
                                                                                                           "slow"]
     assert calls == [("quick", False), ("slow", True)]
+
+
+@pytest.mark.slow
+def test_the_demo_reports_each_step_as_it_starts(tmp_path):
+    from rig.demo_pipeline import DemoSettings, run_demo
+
+    steps = []
+    run_demo(DemoSettings(levels=4, measurements=10, effect=None), tmp_path / "d", progress=steps.append)
+    assert steps == ["1/4 acquiring", "2/4 identifying", "3/4 diagnosing", "4/4 reporting"]

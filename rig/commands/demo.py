@@ -14,6 +14,10 @@ from identify import PreisachModel
 from ..output import format_table, print_json
 
 
+#: How long ``rig demo`` takes with the defaults (L = 30) on a quiet 2-core machine (s), for its progress line.
+DEMO_SECONDS = 5.0
+
+
 def _finite(ctx, param, value):
     """``--strength``: a finite number >= 0 (click's FloatRange lets NaN through)."""
     if value is not None and not math.isfinite(value):
@@ -57,11 +61,14 @@ def demo(levels, measurements, effect, strength, seed, out_dir, as_json):
     """
     # the pipeline (diagnosis, plots) is imported here, not when the rig command starts
     from ..demo_pipeline import DemoSettings, run_demo
+    from ..fit_progress import FitProgress
 
     settings = DemoSettings(levels=levels, measurements=measurements, effect=None if effect == "none" else effect,
                             strength=strength, seed=seed)
     out = Path(tempfile.mkdtemp(prefix="rig-demo-")) if out_dir is None else out_dir
-    result = run_demo(settings, out)
+    # on a terminal, the step it is in and about how long is left (about 5 s at L = 30 on a quiet machine)
+    with FitProgress("rig demo", DEMO_SECONDS * max(1.0, (levels / 30) ** 2)) as shown:
+        result = run_demo(settings, out, progress=shown.stage)
     if as_json:
         print_json(result.to_json())
         return
