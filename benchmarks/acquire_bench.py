@@ -108,32 +108,43 @@ def cli_runs(repeats: int, tmp: Path) -> tuple[list[float], list[float]]:
     return runs, starts
 
 
+def timed_run(rig, record, settings: DwellSettings, path: Path,
+              flushed: list[float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Run ``record`` on ``rig`` into ``path`` with the heater, sensor, clock and writer timed: the
+    sequencer's overhead per sample (s) and its HDF5 append + flush part (s), one entry per sample.
+    ``flushed`` receives the wall-clock time (``time.time()``) each sample was on disk."""
+    plan = AcquisitionPlan.from_record(record)
+    device = Stopwatch()
+    writer = SessionWriter.create(path, record)
+    recorder = Stopwatch()
+    bar = ProgressBar(plan.n_points, enabled=False)
+    stamps: list[tuple[float, float, float]] = []
+
+    def on_sample(result):
+        if flushed is not None:
+            flushed.append(time.time())
+        bar.update(result)
+        stamps.append((time.perf_counter(), device.inside, recorder.inside))
+
+    seq = Sequencer(Timed(rig.heater, device), Timed(rig.sensor, device), Timed(rig.clock, device),
+                    plan, settings, Timed(writer, recorder), **vars(Hooks(on_sample=on_sample)))
+    seq.saturate()
+    stamps.append((time.perf_counter(), device.inside, recorder.inside))
+    seq.run()
+    writer.finish()
+    t = np.array(stamps)
+    return np.diff(t[:, 0]) - np.diff(t[:, 1]), np.diff(t[:, 2])
+
+
 def overhead(repeats: int, tmp: Path) -> tuple[np.ndarray, np.ndarray]:
     """Per-sample sequencer overhead (s) and its HDF5 append + flush part (s), every sample of every repeat."""
     over, appends = [], []
     for r in range(repeats):
         with open_rig() as rig:
             rec = make_record(sequence_record("damped", rig.heater.window), SETTINGS)
-            plan = AcquisitionPlan.from_record(rec)
-            device = Stopwatch()
-            writer = SessionWriter.create(tmp / f"over-{r}.h5", rec)
-            recorder = Stopwatch()
-            bar = ProgressBar(plan.n_points, enabled=False)
-            stamps: list[tuple[float, float, float]] = []
-
-            def on_sample(result, bar=bar, stamps=stamps, device=device, recorder=recorder):
-                bar.update(result)
-                stamps.append((time.perf_counter(), device.inside, recorder.inside))
-
-            seq = Sequencer(Timed(rig.heater, device), Timed(rig.sensor, device), Timed(rig.clock, device),
-                            plan, SETTINGS, Timed(writer, recorder), **vars(Hooks(on_sample=on_sample)))
-            seq.saturate()
-            stamps.append((time.perf_counter(), device.inside, recorder.inside))
-            seq.run()
-            writer.finish()
-        t = np.array(stamps)
-        over.append(np.diff(t[:, 0]) - np.diff(t[:, 1]))
-        appends.append(np.diff(t[:, 2]))
+            o, a = timed_run(rig, rec, SETTINGS, tmp / f"over-{r}.h5")
+        over.append(o)
+        appends.append(a)
     return np.concatenate(over), np.concatenate(appends)
 
 

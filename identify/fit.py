@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +21,9 @@ from .memory import InitialState
 from .methods import Problem, choose_rows, make_method
 from .metrics import max_abs, normalised, rmse
 from .model import PreisachModel
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .runs import Run
 
 
 @dataclass(frozen=True)
@@ -133,4 +136,39 @@ def fit_sequence(
         max_abs=max_abs(err),
         seconds=estimator.seconds_,
         info=estimator.info_,
+    )
+
+
+def fit_run(
+    grid: Grid,
+    run: "Run",
+    method: str = "ls",
+    effects: list | tuple = (),
+    *,
+    thermal_term: bool = True,
+    settings: dict[str, Any] | None = None,
+) -> FitReport:
+    """Identify a model with ``effects`` (unfitted :class:`identify.effects.Effect` instances, or names)
+    from one recorded :class:`~identify.runs.Run` (its measured points; every applied point sets the
+    memory), jointly with the density (:mod:`identify.effects.joint`).
+
+    ``info`` adds ``base_rmse`` (the same fit without the effects, um),
+    ``effect_settings`` and the number of linear ``solves``.
+    """
+    from .effects import Effect, parse_effects
+    from .effects.joint import fit_with_effects
+
+    chosen = [e if isinstance(e, Effect) else parse_effects(e)[0] for e in effects]
+    joint = fit_with_effects(grid, [run], method, chosen, thermal_term=thermal_term, settings=settings)
+    return FitReport(
+        method=method,
+        settings=dict(joint.method_settings),
+        model=joint.model,
+        rows=run.rows,
+        n_points=run.n,
+        rmse=joint.rmse,
+        nrmse=joint.nrmse,
+        max_abs=joint.max_abs,
+        seconds=joint.seconds,
+        info={**joint.info, "base_rmse": joint.base_rmse, "effect_settings": joint.settings},
     )

@@ -201,16 +201,28 @@ class AugmentedOperator(LinearOperator):
     ``extra`` is ``(n, k)`` (output units per unit coefficient); products
     cost those of ``S`` plus ``O(n k)``.  :attr:`base_index` and
     :attr:`extra_index` map the parts of ``w`` back.
+
+    ``penalty`` ``(r, k)`` (or None) appends ``r`` rows that act on the extra
+    coefficients alone (zero on the density, ``mu0`` and ``c_d``): fitted to
+    zero, they add ``||penalty beta||^2`` to a least-squares objective -- a
+    roughness penalty that any of the solvers then honours.  The operator is
+    ``(n + r, P + k)``; :attr:`inputs` still has the ``n`` applied inputs.
     """
 
-    def __init__(self, base: RegressorOperator, extra: np.ndarray, k_nonneg: int = 0) -> None:
+    def __init__(self, base: RegressorOperator, extra: np.ndarray, k_nonneg: int = 0,
+                 penalty: np.ndarray | None = None) -> None:
         extra = np.asarray(extra, dtype=float)
         if extra.ndim != 2 or extra.shape[0] != base.shape[0]:
             raise ValueError(f"extra columns must be ({base.shape[0]}, k), got {extra.shape}")
         if not 0 <= k_nonneg <= extra.shape[1]:
             raise ValueError(f"k_nonneg={k_nonneg} outside 0..{extra.shape[1]}")
+        penalty = np.zeros((0, extra.shape[1])) if penalty is None else np.asarray(penalty, dtype=float)
+        if penalty.ndim != 2 or penalty.shape[1] != extra.shape[1]:
+            raise ValueError(f"penalty rows must be (r, {extra.shape[1]}), got {penalty.shape}")
         self.base = base
         self.extra = extra
+        self.penalty = penalty
+        self.n_inputs = base.shape[0]
         self.k_nonneg = int(k_nonneg)
         self.grid = base.grid
         self.inputs = base.inputs
@@ -222,20 +234,25 @@ class AugmentedOperator(LinearOperator):
         self.position[order] = np.arange(pb + k)
         self.base_index = self.position[:pb]
         self.extra_index = self.position[pb:]
-        super().__init__(np.float64, (base.shape[0], pb + k))
+        super().__init__(np.float64, (base.shape[0] + penalty.shape[0], pb + k))
 
     def _matmat(self, w: np.ndarray) -> np.ndarray:
         w = np.asarray(w, dtype=float)
-        return self.base._matmat(w[self.base_index]) + self.extra @ w[self.extra_index]
+        we = w[self.extra_index]
+        top = self.base._matmat(w[self.base_index]) + self.extra @ we
+        if not self.penalty.shape[0]:
+            return top
+        return np.vstack([top, self.penalty @ we])
 
     def _matvec(self, w: np.ndarray) -> np.ndarray:
         return self._matmat(np.asarray(w, dtype=float).reshape(-1, 1)).ravel()
 
     def _rmatmat(self, r: np.ndarray) -> np.ndarray:
         r = np.asarray(r, dtype=float)
+        n = self.n_inputs
         out = np.empty((self.shape[1], r.shape[1]))
-        out[self.base_index] = self.base._rmatmat(r)
-        out[self.extra_index] = self.extra.T @ r
+        out[self.base_index] = self.base._rmatmat(r[:n])
+        out[self.extra_index] = self.extra.T @ r[:n] + self.penalty.T @ r[n:]
         return out
 
     def _rmatvec(self, r: np.ndarray) -> np.ndarray:
@@ -248,17 +265,21 @@ class AugmentedOperator(LinearOperator):
     rows = RegressorOperator.rows
 
     def dense_rows(self, rows: np.ndarray | slice | None = None) -> np.ndarray:
-        """Rows of the dense ``[S, C]`` in the parameter order above, ``(len(rows), P + k)``."""
+        """Rows of the dense ``[S, C]`` (then the penalty rows) in the parameter order above, ``(len(rows), P + k)``."""
         picked = np.arange(self.shape[0])[rows if rows is not None else slice(None)]
-        out = np.empty((picked.size, self.shape[1]))
-        out[:, self.base_index] = self.base.dense_rows(picked)
-        out[:, self.extra_index] = self.extra[picked]
+        n = self.n_inputs
+        data, pen = picked[picked < n], picked[picked >= n]
+        out = np.zeros((picked.size, self.shape[1]))
+        top = picked < n
+        out[np.ix_(top, self.base_index)] = self.base.dense_rows(data)
+        out[np.ix_(top, self.extra_index)] = self.extra[data]
+        out[np.ix_(~top, self.extra_index)] = self.penalty[pen - n]
         return out
 
     def column_norms(self) -> np.ndarray:
         out = np.empty(self.shape[1])
         out[self.base_index] = self.base.column_norms()
-        out[self.extra_index] = np.linalg.norm(self.extra, axis=0)
+        out[self.extra_index] = np.sqrt(np.sum(self.extra ** 2, axis=0) + np.sum(self.penalty ** 2, axis=0))
         return out
 
 
@@ -279,6 +300,7 @@ class RowScaledOperator(LinearOperator):
         self.scale = scale
         self.grid = base.grid
         self.inputs = base.inputs
+        self.n_inputs = getattr(base, "n_inputs", base.shape[0])
         for name in ("base_index", "extra_index", "position"):
             if hasattr(base, name):
                 setattr(self, name, getattr(base, name))

@@ -9,7 +9,8 @@ than scored on saturated predictions.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from .memory import InitialState
 from .metrics import max_abs, normalised, output_range, rmse
 from .model import PreisachModel
 from .regressor import check_inputs
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .runs import Run
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,6 +43,8 @@ class ValidationReport:
     max_abs: float
     nrmse: float
     output_range: float
+    #: Per-run effects of the model re-estimated on this run, held out (:mod:`identify.effects.nuisance`).
+    nuisance: dict = field(default_factory=dict)
 
     @property
     def n_points(self) -> int:
@@ -90,6 +96,10 @@ def validate_model(
     if rows.size == 0:
         raise IdentifyError("no measured output to compare the model with")
     prediction = model.predict(v, initial)
+    return _report(prediction, rows, y)
+
+
+def _report(prediction: np.ndarray, rows: np.ndarray, y: np.ndarray, nuisance: dict | None = None) -> ValidationReport:
     residual = prediction[rows] - y[rows]
     measured = y[rows]
     return ValidationReport(
@@ -100,7 +110,29 @@ def validate_model(
         max_abs=max_abs(residual),
         nrmse=normalised(rmse(residual), measured),
         output_range=output_range(measured),
+        nuisance=nuisance or {},
     )
+
+
+def validate_run(model: PreisachModel, run: "Run", *, check_range: bool = True) -> ValidationReport:
+    """:func:`validate_model` for a model with effects, on a whole :class:`~identify.runs.Run`
+    (its time stamps and dwells), from negative saturation.
+
+    Per-run effects that do not know the run (drifts fitted on another run)
+    are re-estimated on it held out (:mod:`identify.effects.nuisance`);
+    :attr:`ValidationReport.nuisance` says which.  Raises
+    :class:`identify.effects.EffectNotApplicable` when the run lacks what an
+    effect needs.
+    """
+    from .effects.nuisance import held_out_prediction
+
+    rows = run.rows
+    if rows.size == 0:
+        raise IdentifyError("no measured output to compare the model with")
+    if check_range:
+        check_covers(model.grid, run.inputs, model.input_unit)
+    prediction, nuisance = held_out_prediction(model, run)
+    return _report(prediction, rows, run.outputs, nuisance)
 
 
 def model_path(

@@ -65,7 +65,8 @@ def worker_environment() -> Iterator[None]:
                 os.environ[k] = v
 
 
-def _context(preload: Sequence[str]) -> multiprocessing.context.BaseContext:
+def worker_context(preload: Sequence[str] = ()) -> multiprocessing.context.BaseContext:
+    """The fork server's context (importing ``preload`` once), or spawning where there is none."""
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
         ctx.set_forkserver_preload(list(preload))
@@ -79,7 +80,7 @@ def start_workers(preload: Sequence[str] = ()) -> None:
     A no-op where there is no fork server, and when it already runs (it
     lives as long as this process; ``preload`` only counts the first time).
     """
-    ctx = _context(preload)
+    ctx = worker_context(preload)
     if ctx.get_start_method() == "forkserver":
         from multiprocessing import forkserver
 
@@ -116,7 +117,7 @@ def run_parallel(
                 bar.update()
             return results
         results = []
-        with worker_pool(_context(preload), workers) as pool:
+        with worker_pool(worker_context(preload), workers) as pool:
             for result in pool.imap(function, jobs):
                 results.append(result)
                 bar.update()

@@ -31,18 +31,25 @@ from pathlib import Path
 import numpy as np
 
 from identify import Grid, IdentifyError
-from identify.fit import FitReport, fit_sequence, measurement_rows
+from identify.fit import FitReport, fit_run, fit_sequence, measurement_rows
+from identify.runs import Run
 from sessions import ModelRecord, add_model
 from sessions.models import check_model_name
 from sessions.recording import Recording
 
 from .curve_selection import selected_rows
 from .errors import UserError
-from .session_input import open_run, partial_state, same_file
+from .session_input import open_run, partial_state, run_of, same_file
 
 
 def report_dict(report: FitReport, thermal_term: bool, seed: int | None) -> dict:
-    """The ``rig identify --json`` object; also a model file ``rig predict`` reads."""
+    """The ``rig identify --json`` object; also a model file ``rig predict`` reads.
+
+    With effects the model's ``effects`` (``[{"name", "params"}]``) are in it,
+    and ``effect_settings`` the nonlinear settings the fit chose."""
+    extra = {}
+    if report.model.effects:
+        extra = {"effect_settings": report.info.get("effect_settings")}
     return {
         "method": report.method,
         **report.model.to_dict(),
@@ -55,6 +62,7 @@ def report_dict(report: FitReport, thermal_term: bool, seed: int | None) -> dict
         "seed": seed,
         "seconds": report.seconds,
         "settings": report.settings,
+        **extra,
     }
 
 
@@ -95,6 +103,7 @@ def default_model_name(
     seed: int | None = None,
     thermal_term: bool = True,
     curves: str = "all",
+    effects: tuple[str, ...] = (),
 ) -> str:
     """The name a model is stored under when ``--name`` is not given.
 
@@ -106,8 +115,10 @@ def default_model_name(
     run's own, ``-r<v_min>_<v_max>`` when the range is not the default one,
     ``-M<M>-s<seed>`` for a random choice of rows, ``-nothermal``
     without the thermal term and ``-even``/``-odd`` for a selection of
-    curves.  E.g. ``ls``, ``cs_order_nn-M300-s0``, ``ls-L20-nothermal``,
-    ``smooth_nn-L40-even``.
+    curves, and ``+<effect>`` for every effect fitted with it (``--with``; an
+    option after a dot).  E.g. ``ls``, ``cs_order_nn-M300-s0``,
+    ``ls-L20-nothermal``, ``smooth_nn-L40-even``, ``ls+reversible``,
+    ``ls-even+reversible.monotone+interaction``.
     """
     parts = [method]
     if levels is None or grid.levels != levels:
@@ -120,7 +131,7 @@ def default_model_name(
         parts.append("nothermal")
     if curves != "all":
         parts.append(curves)
-    return "-".join(parts)
+    return "-".join(parts) + "".join(f"+{e.replace(':', '.')}" for e in effects)
 
 
 @dataclass(frozen=True)
@@ -141,6 +152,8 @@ class IdentifyOptions:
     #: The methods' ``solver`` setting ("fast" or "dense"), or None for their default.
     solver: str | None = None
     curves: str = "all"
+    #: Effects fitted jointly with the density (``--with``), as ``NAME[:OPTION]``.
+    effects: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,7 +166,9 @@ class IdentifyJob:
     ``store_as`` the model name in the session, or ``None`` when the model
     is not stored; ``partial`` describes a partial session (else ``None``);
     ``label`` prefixes fitting errors (set in batches, to name the file);
-    ``curves`` ``(n,)`` the curve of every point (-1: none), when the run has curves.
+    ``curves`` ``(n,)`` the curve of every point (-1: none), when the run has curves;
+    ``effects`` the effects to fit with the density and ``run`` the recorded run
+    they act on (time stamps, dwells; its outputs at ``rows`` only).
     """
 
     path: Path
@@ -172,6 +187,8 @@ class IdentifyJob:
     solver: str | None = None
     curves: np.ndarray | None = None
     curve_selection: str = "all"
+    effects: tuple[str, ...] = ()
+    run: Run | None = None
 
 
 def _store_as(data: Recording, o: IdentifyOptions, grid: Grid) -> str | None:
@@ -191,6 +208,7 @@ def _store_as(data: Recording, o: IdentifyOptions, grid: Grid) -> str | None:
         name = default_model_name(
             o.method, grid, levels=None if s.grid is None else s.grid.levels, v_range=default_range(data),
             measurements=o.measurements, seed=o.seed, thermal_term=o.thermal_term, curves=o.curves,
+            effects=o.effects,
         )
     check_model_name(name)
     if name in s.models and not o.force:
@@ -213,6 +231,7 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
             what += f" on the {o.curves} curves"
         raise UserError(f"--measurements {o.measurements} must be between 1 and {what}")
     rows = measurement_rows(grid, data.inputs, o.measurements, o.seed, o.thermal_term, candidates)
+    run = _effects_run(path, data, grid, rows, o) if o.effects else None
     s = data.session
     return IdentifyJob(
         path=path,
@@ -231,17 +250,44 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
         solver=o.solver,
         curves=data.curves,
         curve_selection=o.curves,
+        effects=o.effects,
+        run=run,
     )
+
+
+def _effects_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: IdentifyOptions) -> Run:
+    """The run the effects act on, checked before anything is fitted: known effects, a method that can
+    fit them, and runs that can identify them (one-line errors otherwise)."""
+    from identify.effects import parse_effects
+    from identify.methods import METHODS
+
+    effects = parse_effects(o.effects)
+    if METHODS[o.method].needs_curves:
+        raise UserError(f"--with: {o.method} takes the density from the curves' second differences and fits "
+                        "no other terms; fit effects with ls or smooth_nn")
+    if METHODS[o.method].needs_square:
+        raise UserError(f"--with: {o.method} needs the square damped-oscillation design, which has no room for "
+                        "effect terms; fit effects with ls or smooth_nn (or everett on FORC data)")
+    run = run_of(data, rows=rows)
+    for e in effects:
+        why = e.identifiable((run,), grid)
+        if why is not None:
+            raise UserError(f"{path}: {e.name} cannot be identified from this run: {why}")
+    return run
 
 
 def fit_job(job: IdentifyJob, progress: Callable[[str], None] | None = None) -> FitReport:
     """Fit one planned job (runs in a worker process in batches); the model carries the run's units.
-    ``progress``: see :func:`identify.fit.fit_sequence`."""
+    ``progress``: see :func:`identify.fit.fit_sequence` (the fit of a model without effects reports stages)."""
+    settings = None if job.solver is None else {"solver": job.solver}
     try:
-        report = fit_sequence(job.grid, job.inputs, job.outputs, job.method, rows=job.rows,
-                              thermal_term=job.thermal_term,
-                              settings=None if job.solver is None else {"solver": job.solver}, curves=job.curves,
-                              progress=progress)
+        if job.effects:
+            report = fit_run(job.grid, job.run, job.method, list(job.effects), thermal_term=job.thermal_term,
+                             settings=settings)
+        else:
+            report = fit_sequence(job.grid, job.inputs, job.outputs, job.method, rows=job.rows,
+                                  thermal_term=job.thermal_term, settings=settings, curves=job.curves,
+                                  progress=progress)
     except IdentifyError as exc:
         if job.label is None:
             raise
@@ -254,18 +300,27 @@ def fit_job(job: IdentifyJob, progress: Callable[[str], None] | None = None) -> 
     return dataclasses.replace(report, model=model)
 
 
+def thermal_term_used(job: IdentifyJob) -> bool:
+    """Whether the fit had the thermal term: asked for, and not replaced by an effect (``reversible``)."""
+    if not job.effects:
+        return job.thermal_term
+    from identify.effects import parse_effects
+
+    return job.thermal_term and not any(e.replaces_thermal_term for e in parse_effects(job.effects))
+
+
 def store_model(job: IdentifyJob, report: FitReport, force: bool) -> ModelRecord:
     """Store the fitted model in the job's session under ``job.store_as``; returns the record stored."""
     if job.store_as is None:
         raise ValueError("this job's model is not to be stored")
-    record = ModelRecord.from_report(job.store_as, report, job.thermal_term, job.seed)
+    record = ModelRecord.from_report(job.store_as, report, thermal_term_used(job), job.seed)
     add_model(job.path, record, force=force)
     return record
 
 
 def result_dict(job: IdentifyJob, report: FitReport) -> dict:
     """The JSON object of one file: :func:`report_dict`, plus ``name`` when the model is stored."""
-    result = report_dict(report, job.thermal_term, job.seed)
+    result = report_dict(report, thermal_term_used(job), job.seed)
     result["curves"] = job.curve_selection
     if job.store_as is not None:
         result["name"] = job.store_as

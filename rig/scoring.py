@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from identify import IdentifyError
-from identify.validation import ValidationReport, check_covers, validate_model
+from identify.validation import ValidationReport, check_covers, validate_model, validate_run
 from sessions import ModelRecord
 from sessions.recording import Recording
 
 from .errors import UserError
+from .session_input import run_of
 
 
 def score_model(
@@ -24,6 +25,8 @@ def score_model(
     identified from, whose inputs the fit saw, saturated or not); applied
     points that are not compared may go beyond it -- a FORC protocol's
     saturation field -- where the model saturates as the sample does.
+    A model with effects acts on the whole run (time stamps, dwells); its
+    drifts are re-estimated, held out, on a run they were not fitted on.
     Problems are one-line :class:`UserError`.
     """
     model = record.model
@@ -41,6 +44,8 @@ def score_model(
             compared = np.flatnonzero(np.isfinite(outputs))
             if compared.size:
                 check_covers(model.grid, data.inputs[compared], model.input_unit)
+        if model.effects:
+            return validate_run(model, run_of(data, rows=rows), check_range=False)
         return validate_model(model, data.inputs, outputs, check_range=False)
     except IdentifyError as exc:
         raise UserError(f"{data.path}: model {record.name!r}: {exc}") from None

@@ -6,6 +6,8 @@
   unfinished run should be asked for, not happen by accident.
 * A **model** is chosen by name; without a name, the most recently stored
   one (commands print which).
+* A **run** as the effects and the diagnosis see it (:func:`run_of`): every
+  applied point with its time stamp and dwell.
 """
 
 from __future__ import annotations
@@ -13,6 +15,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
+
+from identify.runs import Run
 from sessions import ModelRecord, Session, Status
 from sessions.recording import Recording, load_recording
 
@@ -67,3 +72,22 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
         return os.path.samefile(a, b)
     except OSError:
         return Path(a).resolve() == Path(b).resolve()
+
+
+def run_of(data: Recording, name: str | None = None, rows: np.ndarray | None = None) -> Run:
+    """A :class:`Run` from a recording: a session's time stamps and dwells, or a CSV trace's times,
+    in the recording's units; ``rows`` (measured rows kept, default all) leaves the others unmeasured.
+    ``name`` defaults to the file's stem (per-run effects of a stored model are kept under it)."""
+    name = data.path.stem if name is None else name
+    s = data.session
+    units = {"input_unit": data.input_unit, "output_unit": data.output_unit, "by_curves": data.curves is not None}
+    outputs = data.outputs if s is None else s.outputs
+    if rows is not None:
+        kept = np.full(outputs.shape, np.nan)
+        kept[rows] = outputs[rows]
+        outputs = kept
+    if s is None:
+        return Run(name, data.inputs, outputs, data.t_s, np.full(data.inputs.size, np.nan), **units)
+    readings = s.excitation.dwell.get("readings")
+    return Run(name, s.inputs, outputs, s.t_s, s.samples["dwell_s"],
+               int(readings) if isinstance(readings, (int, float)) else None, **units)

@@ -11,7 +11,9 @@ so that HDF5 tools show it plainly:
   ``method``, ``settings`` (JSON), ``metrics`` (JSON: ``rmse``, ``nrmse``,
   ``max_abs``, ``n_measured``, ``n_points``, ``seconds``), ``thermal_term``,
   ``seed`` (absent when the rows were not chosen at random),
-  ``created_at`` (ISO 8601, UTC) and ``software_version``.
+  ``created_at`` (ISO 8601, UTC) and ``software_version``; ``effects``
+  (JSON: ``[{"name", "params"}, ...]``, :mod:`identify.effects`) only when
+  the model was identified with effects.
 
 Models are added to a finished session by :func:`sessions.rewrite.add_model`,
 which never touches the original file until the new one is complete.
@@ -114,6 +116,8 @@ def write_model_group(parent: h5py.Group, record: ModelRecord) -> h5py.Group:
         g.attrs[key] = d[key]
     if "metadata" in d:
         g.attrs["metadata"] = _json(d["metadata"])
+    if "effects" in d:
+        g.attrs["effects"] = _json(d["effects"])
     g.attrs["method"] = record.method
     g.attrs["thermal_term"] = bool(record.thermal_term)
     if record.seed is not None:
@@ -136,6 +140,8 @@ def read_model_group(group: h5py.Group) -> ModelRecord:
         data["density"] = group["density"][()]
         if "metadata" in a:
             data["metadata"] = json.loads(a["metadata"])
+        if "effects" in a:
+            data["effects"] = json.loads(a["effects"])
         data = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in data.items()}
         model = PreisachModel.from_dict(data)
         return ModelRecord(

@@ -365,9 +365,23 @@ class SessionFollower:
         return np.concatenate(self._parts) if self._parts else np.empty(0, SAMPLE_DTYPE)
 
     @property
-    def status(self) -> Status:
+    def events(self) -> tuple[Event, ...]:
+        """The session log as flushed so far."""
         self._log.refresh()
-        return read_events(self._log)[-1].status
+        return read_events(self._log)
+
+    @property
+    def status(self) -> Status:
+        return self.events[-1].status
+
+    def replaced(self) -> bool:
+        """Whether the path no longer names the file being followed: a rewrite renamed a new file over
+        it (a resumed run, a stored model) or it was removed.  The old file reads on, unchanged."""
+        try:
+            a, b = os.stat(self.path), os.fstat(self._file.id.get_vfd_handle())
+        except OSError:
+            return True
+        return (a.st_dev, a.st_ino) != (b.st_dev, b.st_ino)
 
     def close(self) -> None:
         self._file.close()

@@ -21,6 +21,7 @@ from rig.acquisition import (
     SettleDwell,
     Transit,
     make_record,
+    sequence_dwells,
     sequence_record,
     time_budget,
 )
@@ -139,10 +140,29 @@ def test_bad_setpoint_files_are_named(tmp_path, text, match):
 
 
 def test_sequence_name_typos_and_misplaced_options():
-    with pytest.raises(DataFileError, match="expected damped, random, check or a CSV file"):
+    with pytest.raises(DataFileError, match="expected damped, random, check, damped\\+check or a CSV file"):
         sequence_record("dampd", VoltageWindow(0.0, 6.0))
     with pytest.raises(DataFileError, match="--points"):
         sequence_record("damped", VoltageWindow(0.0, 6.0), points=10)
+
+
+def test_damped_plus_check_is_the_damped_oscillation_then_a_check_design_with_its_dwells():
+    window = VoltageWindow(0.0, 6.0)
+    record = sequence_record("damped+check", window, points=40, seed=3)
+    damped = sequence_record("damped", window)
+    n = damped.n_points
+    np.testing.assert_array_equal(record.inputs[:n], damped.inputs)
+    assert record.n_points == n + 40 and record.extra["damped_points"] == n
+    dwell = sequence_dwells("damped+check", window, points=40, seed=3, dwell=20.0)
+    assert dwell.shape == (n + 40,) and np.all(dwell[:n] == 20.0)
+    assert set(dwell[n:]) <= set(record.extra["dwell_choices_s"]) and len(set(dwell[n:])) > 1
+    # --dwells: each point of the damped part draws one of the choices (seeded), all of them used
+    varied = sequence_dwells("damped", window, seed=1, choices=(8.0, 60.0))
+    again = sequence_dwells("damped", window, seed=1, choices=(8.0, 60.0))
+    assert varied.shape == (n,) and set(varied) == {8.0, 60.0}
+    np.testing.assert_array_equal(varied, again)
+    with pytest.raises(DataFileError, match="their own"):
+        sequence_dwells("check", window, choices=(8.0,))
 
 
 # ---------------------------------------------------------------- dwell policies

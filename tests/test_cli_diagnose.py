@@ -8,6 +8,8 @@ import json
 import numpy as np
 import pytest
 
+from identify.effects import EFFECTS
+
 from rig.diagnosis.demo import diagnose_simulated
 from rig.diagnosis.simulate import SimulatedBench, simulate
 from sessions import Trace, read_session, write_trace
@@ -37,8 +39,7 @@ def test_json_follows_the_contract_and_names_the_effect(creep_runs, tmp_path):
     for w in out["where"]:
         assert w["bins"] and all({"lo", "hi", "mean_um", "rms_um", "n", "significant"} <= set(b) for b in w["bins"])
         assert sum(b["n"] for b in w["bins"]) == out["baseline"]["n_points"]
-    assert {c["effect"] for c in out["candidates"]} == {"thermal_lag", "baseline_drift", "ambient_drift",
-                                                        "joule_power", "creep", "sensor_nonlinearity"}
+    assert {c["effect"] for c in out["candidates"]} == set(EFFECTS)
     for c in out["candidates"]:
         assert {"effect", "rmse_um", "shrink", "ci", "params"} <= set(c) and len(c["ci"]) == 2
         assert c["ci"][0] <= c["shrink"] <= c["ci"][1]

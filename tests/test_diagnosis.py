@@ -11,7 +11,8 @@ import scipy.optimize
 from identify import Grid, IdentifyError, damped_oscillation
 from identify.diagnosis import Run, check_design, diagnose, library
 from identify.diagnosis.base import fit_base, uncertain_directions
-from identify.diagnosis.candidates import Context, ThermalLagCandidate
+from identify.effects import EFFECTS, Context
+from identify.effects.thermal_lag import lagged
 from identify.diagnosis.noise import NoiseEstimate, combine, from_repeated_runs, from_repeated_visits
 from identify.diagnosis.scoring import Design, bootstrap_mse, cross_validate, make_blocks, solve_coefficients
 from identify.diagnosis.verdict import Evidence
@@ -234,7 +235,7 @@ def test_no_effect_is_no_gap_and_bad_check_points_are_reported_not_fatal():
     d = diagnose([fit], [short], GRID)
     skipped = dict(d.not_assessed)
     assert set(skipped) == {"baseline_drift", "ambient_drift"} and "scored points" in skipped["baseline_drift"]
-    assert {c.effect for c in d.candidates} == {"thermal_lag", "joule_power", "creep", "sensor_nonlinearity"}
+    assert {c.effect for c in d.candidates} == set(library_names()) - {"baseline_drift", "ambient_drift"}
     with pytest.raises(IdentifyError, match="inside the identification range"):
         out = Run("out", np.full(12, 7.0), check.outputs[:12], check.t_s[:12], check.dwell_s[:12], 4)
         diagnose([fit], [out], GRID)
@@ -256,7 +257,7 @@ def test_thermal_lag_cannot_be_seen_when_every_dwell_is_long():
 
 def test_lagged_inputs_blend_heater_power_by_hand():
     run = run_of("r", [2.0, 4.0], [0.0, 0.0], [1.0, 2.0])
-    x = ThermalLagCandidate.lagged_inputs(run, tau=1.0)
+    x = lagged(run, tau=1.0, fraction=1.0)
     p0 = 4.0 * (1 - math.exp(-1.0))  # from 0 V towards 2 V for 1 s, in squared volts
     p1 = 16.0 + (p0 - 16.0) * math.exp(-2.0)
     np.testing.assert_allclose(x, np.sqrt([p0, p1]))
@@ -275,7 +276,7 @@ def test_the_base_fit_exposes_its_poorly_determined_direction():
     # leaves free around the thermal point); the rest far less
     assert s[0] > 6.0 and s[1] < 3.0 and u.shape[1] == 1
     np.testing.assert_allclose(u.T @ u, np.eye(1), atol=1e-10)
-    ctx = Context.build(base, (fit, check))
+    ctx = Context.of_model(base.model, (fit, check), 1)
     for cand in library():
         cols = cand.columns(ctx, cand.settings_grid()[0])
         assert [c.shape for c in cols.values] == [(fit.n, cols.k), (check.n, cols.k)]
@@ -288,3 +289,7 @@ def test_the_linearised_base_fit_reproduces_its_predictions(method):
     carry = base.carry_over(base.regressor(check)[check.rows])
     np.testing.assert_allclose(carry @ base.measured, base.predict(check)[check.rows], atol=1e-9)
     np.testing.assert_allclose(base.unabsorbed(base.measured[:, None])[:, 0], base.residual, atol=1e-9)
+
+
+def library_names():
+    return list(EFFECTS)

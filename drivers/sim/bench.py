@@ -17,7 +17,6 @@ Endpoints (any combination):
 from __future__ import annotations
 
 import asyncio
-import ipaddress
 import threading
 from collections.abc import Coroutine
 from concurrent.futures import Future
@@ -27,6 +26,7 @@ from pymodbus import FramerType
 
 from ..config import ModbusConfig, RigConfig, SerialConfig
 from ..errors import ConfigError, ServeError
+from ..net import is_loopback
 from .device import SimVO2
 from .faults import FaultPlan
 from .journal import Journal
@@ -46,21 +46,12 @@ def parse_host_port(text: str, what: str, allow_remote: bool = False) -> tuple[s
         raise ConfigError(f"{what}: {text!r} is not HOST:PORT") from None
     if not 0 <= port <= 65535:
         raise ConfigError(f"{what}: port {port} is out of range")
-    if not allow_remote and not _is_loopback(host):
+    if not allow_remote and not is_loopback(host):
         raise ConfigError(
             f"{what}: {host} is not a loopback address; the simulated bench listens on loopback "
             "only unless --allow-remote is given"
         )
     return host, port
-
-
-def _is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def endpoints_from_config(cfg: RigConfig) -> dict[str, str]:

@@ -26,13 +26,14 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import IdentifyError
+from ..effects import Context
+from ..errors import IdentifyError, MethodNotApplicable
 from ..grid import Grid
+from ..runs import Run
 from .base import BaseFit, fit_base, uncertain_directions
 from .binning import Binning, bin_residuals
-from .candidates import Candidate, Columns, Context, library
+from .candidates import Candidate, Columns, fitted_params, library
 from .noise import NoiseEstimate, estimate_noise, floor_per_point
-from ..runs import Run
 from .scoring import Blocks, Design, bootstrap_mse, cross_validate, make_blocks, onehot
 from .verdict import Evidence, Verdict
 
@@ -53,7 +54,8 @@ MAX_REPORTED_AMPLIFICATION = 5
 @dataclass(frozen=True)
 class DiagnosisSettings:
     """``method`` (and ``method_settings``) of the base fit; ``effects``: the candidate library
-    (None: all); ``n_boot`` bootstrap resamples, ``seed`` of the bootstrap."""
+    (None: all); ``n_boot`` bootstrap resamples, ``seed`` of the bootstrap; ``keep``: fit and score the
+    model with the named effect(s) (:class:`KeptModel`)."""
 
     method: str = "ls"
     method_settings: dict[str, Any] | None = None
@@ -61,6 +63,8 @@ class DiagnosisSettings:
     effects: tuple[str, ...] | None = None
     n_boot: int = 2000
     seed: int = 0
+    #: Fit the named effects as ``rig identify --with`` would and score that model (:class:`KeptModel`).
+    keep: bool = True
 
 
 @dataclass(frozen=True)
@@ -83,6 +87,22 @@ class CandidateScore:
     note: str
     share_closed: float | None
     ci_block_bootstrap: tuple[float, float] = (float("nan"), float("nan"))
+
+
+@dataclass(frozen=True)
+class KeptModel:
+    """The model ``rig identify --with EFFECT[,...]`` stores for the effects the verdict names, fitted on the
+    identification runs alone and judged like any model on the scored check points: ``rmse_um`` held
+    out, ``shrink`` ``1 - rmse / fit_only_rmse_um`` against the base model exactly as identified; drifts
+    of the check runs re-estimated on held-out blocks (:mod:`identify.effects.nuisance`).  ``error`` says
+    why there is none (an effect the identification runs cannot identify), with ``rmse_um`` None."""
+
+    effects: tuple[str, ...]
+    rmse_um: float | None
+    shrink: float | None
+    params: dict[str, Any] = field(default_factory=dict)
+    seconds: float = 0.0
+    error: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,6 +148,7 @@ class Diagnosis:
     evidence: Evidence | None = None
     input_unit: str = "V"
     output_unit: str = "um"
+    kept: KeptModel | None = None
 
     @property
     def chosen(self) -> str | None:
@@ -188,7 +209,7 @@ class _Scored:
     blocks: Blocks
 
 
-def _effective(ctx: Context, scored: _Scored, cols: Columns) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _effective(base: BaseFit, scored: _Scored, cols: Columns) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The joint-fit columns of one setting.
 
     Returns ``E = C_check - carry C_fit`` ``(m, k)`` at the scored check
@@ -196,10 +217,10 @@ def _effective(ctx: Context, scored: _Scored, cols: Columns) -> tuple[np.ndarray
     C_fit`` ``(m_fit, k)`` at the identification points (what the base fit
     could not absorb), and the raw columns (check then fit points).
     """
-    n_fit = len(ctx.base.fit_runs)
-    c_fit = np.vstack([cols.values[i][run.rows] for i, run in enumerate(ctx.base.fit_runs)])
+    n_fit = len(base.fit_runs)
+    c_fit = np.vstack([cols.values[i][run.rows] for i, run in enumerate(base.fit_runs)])
     c_check = np.vstack([cols.values[n_fit + i][rows] for i, rows in enumerate(scored.rows)])
-    return c_check - scored.carry @ c_fit, ctx.base.unabsorbed(c_fit), np.vstack([c_check, c_fit])
+    return c_check - scored.carry @ c_fit, base.unabsorbed(c_fit), np.vstack([c_check, c_fit])
 
 
 def _with_reference(e: np.ndarray, a: np.ndarray, cols: Columns, recal: np.ndarray) -> Design:
@@ -292,8 +313,8 @@ def diagnose(
         rows.append(r)
     if not used:
         raise IdentifyError("no check point lies inside the identification range; nothing to judge the model on")
-    ctx = Context.build(base, fit_runs + tuple(used))
     n_fit = len(fit_runs)
+    ctx = Context.of_model(base.model, fit_runs + tuple(used), n_fit)
     preds = ctx.predictions[n_fit:]
     regs = np.vstack([base.regressor(run)[r] for run, r in zip(used, rows)])
     blocks = make_blocks([r.size for r in rows])
@@ -340,7 +361,7 @@ def diagnose(
     ind = onehot(blocks)
     results, not_assessed = [], []
     for cand in cands:
-        why_not = cand.applicable(ctx)
+        why_not = cand.applicable(ctx.runs)
         if why_not is not None:
             not_assessed.append((cand.name, f"not applicable: {why_not}"))
             continue
@@ -350,14 +371,14 @@ def diagnose(
         if reason is not None:
             not_assessed.append((cand.name, reason))
             continue
-        parts = [_effective(ctx, scored, c) for c in cols_list]
+        parts = [_effective(base, scored, c) for c in cols_list]
         visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list[0], floor_rms,
                                 output_unit)
         designs = [_with_reference(e, a, c, recal) for (e, a, _), c in zip(parts, cols_list)]
         cv = cross_validate(gap, blocks, designs, base.residual, fit_weight)
         after = gap - cv.prediction
-        coef = dict(zip(cols_list[0].labels, (float(c) for c in cv.full_coef[: cols_list[0].k])))
-        params = cand.params(ctx, grid_settings[cv.full_setting], coef)
+        full = cols_list[cv.full_setting]
+        params = fitted_params(cand, ctx, grid_settings[cv.full_setting], cv.full_coef[: full.k], full)
         results.append((cand, after, params, visible, note))
 
     sse_base = ind @ reference**2
@@ -434,4 +455,42 @@ def diagnose(
     chosen = result.chosen
     if chosen is not None and chosen in residual_after:
         object.__setattr__(result, "where_after", bin_residuals(feats, residual_after[chosen], floor, unit_names))
+    named = verdict_effects(verdict)
+    if named and settings.keep:
+        object.__setattr__(result, "kept", keep_model(grid, fit_runs, tuple(used), tuple(rows), named, settings,
+                                                      base.thermal_term, result.fit_only_rmse_um))
     return result
+
+
+def verdict_effects(verdict: Verdict) -> tuple[str, ...]:
+    """The effects a verdict names (explained), in order."""
+    return (verdict.effect,) if verdict.status == "explained" and verdict.effect else ()
+
+
+def keep_model(grid: Grid, fit_runs: tuple[Run, ...], check_runs: tuple[Run, ...], rows: tuple[np.ndarray, ...],
+               names: tuple[str, ...], settings: DiagnosisSettings, thermal_term: bool, base_rmse: float) -> KeptModel:
+    """:class:`KeptModel` for ``names``: the joint fit on the identification runs, scored on ``rows`` of
+    each check run."""
+    import time
+
+    from ..effects import EffectNotIdentifiable, make_effect
+    from ..effects.joint import fit_with_effects
+    from ..validation import validate_run
+
+    start = time.perf_counter()
+    try:
+        joint = fit_with_effects(grid, fit_runs, settings.method, [make_effect(n) for n in names],
+                                 thermal_term=thermal_term, settings=settings.method_settings)
+    except (EffectNotIdentifiable, MethodNotApplicable) as exc:
+        return KeptModel(names, None, None, error=str(exc))
+    residuals = []
+    for run, r in zip(check_runs, rows):
+        outputs = np.full(run.n, np.nan)
+        outputs[r] = run.outputs[r]
+        scored = Run(run.name, run.inputs, outputs, run.t_s, run.dwell_s, run.readings, run.initial_V,
+                     run.input_unit, run.output_unit, run.by_curves)
+        residuals.append(validate_run(joint.model, scored, check_range=False).residual)
+    rmse = _rms(np.concatenate(residuals))
+    params = {e.name: e.report(fit_runs) for e in joint.model.effects}
+    return KeptModel(names, rmse, 1.0 - rmse / base_rmse if base_rmse > 0 else None, params,
+                     time.perf_counter() - start)

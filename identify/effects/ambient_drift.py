@@ -7,7 +7,9 @@ heater's kelvin per V^2), a smooth function of session time per run (a
 penalised cubic spline, :mod:`identify.effects.bases`).  The thermal term
 follows the heater, not the room.  A per-run nuisance: a stored model
 knows the drift of the runs it was fitted on, by name, and nothing of
-another run's.
+another run's.  The first run's drift has zero mean over its measured
+points: its mean room temperature is the reference the density is
+identified at (a constant offset of the input is the density's to absorb).
 
 Linearised, a shift of a run's input history changes the output by ``J``
 times the shift, ``J`` the model's sensitivity to a uniform input shift
@@ -29,7 +31,11 @@ from .bases import per_run_columns, run_splines, spline_of, time_splines
 #: Weights of the splines' roughness penalty tried in the diagnosis (relative to the data): from as
 #: strong as the data to nearly a straight line per run.  Never none: an unpenalised coefficient that
 #: the training blocks hardly see extrapolates wildly into the held-out block.
-SMOOTHING = (1.0, 10.0, 100.0, 1000.0)
+SMOOTHING = (0.01, 0.1, 1.0, 10.0, 100.0, 1000.0)
+#: Weight of the roughness penalty when a model is fitted with a drift (``rig identify --with``): the
+#: middle of :data:`SMOOTHING`.  Unpenalised, a drift's first spline trades with the cells that only
+#: the run's first points switch (and with ``mu0``), and a model stored with it mispredicts other runs.
+FIT_SMOOTHING = 1.0
 #: Below this fraction of the range the input counts as near zero in ``J / (2 x)``.
 LOW_INPUT = 0.05
 #: Secant step in the drift, in squared cells.
@@ -65,7 +71,7 @@ class AmbientDrift(Effect):
         return [{"smoothing": w} for w in SMOOTHING]
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
-        return [{"smoothing": 0.0}]
+        return [{"smoothing": FIT_SMOOTHING}]
 
     def drift(self, run: Run) -> np.ndarray:
         """This run's ``d(t)`` (V^2) at every point, ``(n,)`` (zeros for a run it was not fitted on)."""
@@ -82,15 +88,25 @@ class AmbientDrift(Effect):
         """Linearised at a model without the drift (the diagnosis; a joint fit's first step): the
         sensitivity to a uniform input shift times the splines.  Once fitted: secants of the model's
         output in each spline coefficient (exact steps near the solution)."""
+        return self._columns(ctx, setting, centre_first=True)
+
+    def nuisance_columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """On another run the drift is relative to the identification run's mean: a constant too."""
+        return self._columns(ctx, setting, centre_first=False)
+
+    def _columns(self, ctx: Context, setting: dict[str, float], centre_first: bool) -> Columns:
+        bases = [time_splines(r) for r in ctx.runs]
+        if centre_first:  # the first run's mean ambient is the density's reference: its drift has zero mean
+            first = ctx.runs[0]
+            bases[0] = bases[0] - bases[0][first.rows].mean(axis=0)
         if not self.fitted:
-            blocks = [sensitivity(ctx, i)[:, None] * time_splines(r) for i, r in enumerate(ctx.runs)]
+            blocks = [sensitivity(ctx, i)[:, None] * b for i, b in enumerate(bases)]
         else:
-            blocks = [self._secants(ctx, i) for i in range(len(ctx.runs))]
+            blocks = [self._secants(ctx, i, b) for i, b in enumerate(bases)]
         return per_run_columns(ctx.runs, blocks, "spline", setting.get("smoothing", 0.0))
 
-    def _secants(self, ctx: Context, i: int) -> np.ndarray:
+    def _secants(self, ctx: Context, i: int, basis: np.ndarray) -> np.ndarray:
         run = ctx.runs[i]
-        basis = time_splines(run)
         x = ctx.inputs[i]
         before = ctx.thermal[i]  # the input before this effect: the heater voltage, or the lagged one
         base = ctx.response(i, x)
@@ -102,6 +118,12 @@ class AmbientDrift(Effect):
         return out
 
     def with_fit(self, ctx, setting, coef, cols) -> "AmbientDrift":
+        coef = np.asarray(coef, dtype=float).copy()
+        first = ctx.runs[0]
+        mine = np.asarray(cols.run_of) == 0
+        if mine.any():  # the first run's columns were centred: so is its step (its splines add up to one)
+            step = coef[mine]
+            coef[mine] = step - time_splines(first)[first.rows].mean(axis=0) @ step
         previous = (self.params or {}).get("runs")
         return AmbientDrift({"runs": {**(previous or {}), **run_splines(ctx.runs, cols, coef, previous)}})
 

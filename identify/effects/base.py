@@ -191,6 +191,11 @@ class Effect(ABC):
         """The effect's terms at ``setting``, linearised at ``ctx`` (see :class:`Columns`)."""
         raise NotImplementedError
 
+    def nuisance_columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """(per-run effects) The terms that re-estimate this effect on a run it was not fitted on
+        (:mod:`identify.effects.nuisance`); default :meth:`columns`."""
+        return self.columns(ctx, setting)
+
     def with_fit(self, ctx: Context, setting: dict[str, float], coef: np.ndarray, cols: Columns) -> "Effect":
         """A fitted instance from the coefficients ``coef`` ``(k,)`` of ``cols`` (the columns of ``setting``
         at ``ctx``).  Input effects' coefficients are steps from this instance's parameters (zero when

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import IdentifyError
 from ..runs import Run
-from .ambient_drift import SMOOTHING, drift_report
+from .ambient_drift import FIT_SMOOTHING, SMOOTHING, drift_report
 from .base import OUTPUT, Columns, Context, Effect, needs_time
 from .bases import per_run_columns, run_splines, spline_of, time_splines
 
@@ -39,7 +39,7 @@ class BaselineDrift(Effect):
         return [{"smoothing": w} for w in SMOOTHING]
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
-        return [{"smoothing": 0.0}]
+        return [{"smoothing": FIT_SMOOTHING}]
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         """Each run's splines; the first run's centred on its measured points (its constant is the bias
@@ -48,6 +48,10 @@ class BaselineDrift(Effect):
         first = ctx.runs[0]
         blocks[0] = blocks[0] - blocks[0][first.rows].mean(axis=0)
         return per_run_columns(ctx.runs, blocks, "spline", setting.get("smoothing", 0.0))
+
+    def nuisance_columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """On another run the drift has its own constant too (each run its own sensor zero)."""
+        return per_run_columns(ctx.runs, [time_splines(r) for r in ctx.runs], "spline", setting.get("smoothing", 0.0))
 
     def with_fit(self, ctx, setting, coef, cols) -> "BaselineDrift":
         previous = (self.params or {}).get("runs", {})

@@ -19,7 +19,7 @@ from .base import Columns
 
 #: Knot spacing (s) of the drifts' cubic splines in session time (a penalised spline: the roughness
 #: penalty decides how wiggly a drift may be).
-KNOT_S = 1200.0
+KNOT_S = 300.0
 #: Degree of the drift splines.
 DEGREE = 3
 

@@ -74,4 +74,4 @@ class Creep(Effect):
         taus = np.asarray(self.params["time_constants_s"])
         mean_tau = float(np.sum(np.abs(w) * taus) / max(float(np.sum(np.abs(w))), 1e-300))
         return {"um_per_V": float(w.sum()), "mean_time_constant_s": mean_tau,
-                "spectrum_um_per_V": {f"um_per_V_at_{t:g}s": float(x) for t, x in zip(taus, w)}, **self.params}
+                "spectrum_um_per_V": {f"um_per_V_at_{t:g}s": float(x) for t, x in zip(taus, w)}}

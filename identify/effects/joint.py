@@ -90,7 +90,7 @@ class JointFit:
     rmse: float
     nrmse: float
     max_abs: float
-    base_rmse: float
+    base_rmse: float | None
     seconds: float
     settings: dict[str, dict[str, float]] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
@@ -227,9 +227,9 @@ class _Fitter:
     # ------------------------------------------------------------ one linear solve
     def solve(self, ctx: Context, effects: tuple[Effect, ...], settings: tuple[dict, ...], frozen: bool = False
               ) -> tuple[PreisachModel, tuple[Effect, ...]]:
-        """One linear solve at ``ctx``; ``frozen`` keeps the input effects where they are (no columns)."""
+        """One linear solve at ``ctx``; ``frozen`` keeps the input and sensor effects where they are (no columns)."""
         st = self.stack
-        active = [not (frozen and e.stage == INPUT) for e in effects]
+        active = [not (frozen and e.stage in (INPUT, SENSOR)) for e in effects]
         cols: list[Columns] = [e.columns(ctx, s) if a else Columns(tuple(np.zeros((r.n, 0)) for r in ctx.runs), (), (), ())
                                for e, s, a in zip(effects, settings, active)]
         blocks, nonneg, owner = [], [], []
@@ -264,13 +264,15 @@ class _Fitter:
             extra = np.hstack(blocks)
             scale = np.sqrt(np.mean(extra[st.rows] ** 2, axis=0))
             scale = np.where(scale > 0, scale, 1.0)
+            penalty = self._penalty(cols, owner, scale, st.rows.size)
             order = np.argsort(~np.asarray(nonneg), kind="stable")  # sign-constrained columns first
             extra = extra[:, order] / scale[order]
+            penalty = None if penalty is None else penalty[:, order]
             k_nonneg = int(np.sum(nonneg))
         else:
-            extra, order, scale, k_nonneg = None, np.zeros(0, int), np.zeros(0), 0
+            extra, order, scale, k_nonneg, penalty = None, np.zeros(0, int), np.zeros(0), 0, None
         problem = Problem.build(self.grid, x, target, st.rows, False, extra=extra, extra_nonneg=k_nonneg,
-                                row_scale=row_scale)
+                                row_scale=row_scale, penalty=penalty)
         estimator = make_method(self.method, **self.method_settings)
         estimator.fit(problem)
         self.solves += 1
@@ -291,6 +293,27 @@ class _Fitter:
         fitted = tuple(e.with_fit(ctx, s, np.asarray(p), c) if a else e
                        for e, s, p, c, a in zip(effects, settings, per_effect, cols, active))
         return model, fitted
+
+    @staticmethod
+    def _penalty(cols: list[Columns], owner: list[tuple[int, int]], scale: np.ndarray, m: int) -> np.ndarray | None:
+        """Rows ``(r, K)`` on the (unit-rms scaled) extra columns for every effect's roughness penalty:
+        ``smoothing`` times the data's scale, as the diagnosis weighs it (None without penalties)."""
+        pieces = []
+        for k, c in enumerate(cols):
+            if c.roughness is None or c.smoothing <= 0:
+                continue
+            idx = np.array([j for j, (i, _) in enumerate(owner) if i == k])
+            sc = scale[idx]
+            r = np.asarray(c.roughness, dtype=float) / np.outer(sc, sc)
+            lam, vec = np.linalg.eigh(r)
+            keep = lam > lam.max(initial=0.0) * 1e-12
+            if not keep.any():
+                continue
+            weight = c.smoothing * m * idx.size / float(np.trace(r))
+            rows = np.zeros((int(keep.sum()), scale.size))
+            rows[:, idx] = np.sqrt(weight * lam[keep])[:, None] * vec[:, keep].T
+            pieces.append(rows)
+        return np.vstack(pieces) if pieces else None
 
     # ------------------------------------------------------------ iterate one setting to convergence
     def state(self, model: PreisachModel, effects: tuple[Effect, ...]) -> _State:
@@ -338,28 +361,37 @@ class _Fitter:
 
 
 def _between(a: Effect, b: Effect, t: float) -> Effect:
-    """For input effects, parameters a fraction ``t`` of the way from ``a`` to ``b``; else ``b``."""
-    if b.stage != INPUT or not b.fitted:
+    """For input and sensor effects, parameters a fraction ``t`` of the way from ``a`` to ``b`` (from no
+    effect when ``a`` is unfitted); else ``b``.  Settings (continuous ones, scales) are ``b``'s."""
+    if b.stage not in (INPUT, SENSOR) or not b.fitted:
         return b
     pa = a.params or {}
-    out = {}
-    for key, vb in b.params.items():
-        va = pa.get(key)
-        if isinstance(vb, (int, float)) and isinstance(va, (int, float)) and key not in b.continuous:
-            out[key] = va + t * (vb - va)
-        elif isinstance(vb, (int, float)) and va is None and key not in b.continuous:
-            out[key] = t * vb
-        else:
-            out[key] = vb
-    if "runs" in out and isinstance(out["runs"], dict):  # per-run splines: interpolate the coefficients
+
+    def mix(key, va, vb):
+        if key in b.continuous or key in FIXED_KEYS:
+            return vb
+        if isinstance(vb, bool):
+            return vb
+        if isinstance(vb, (int, float)):
+            return (va if isinstance(va, (int, float)) else 0.0) + t * (vb - (va if isinstance(va, (int, float)) else 0.0))
+        if isinstance(vb, list) and vb and all(isinstance(x, (int, float)) for x in vb):
+            old = np.asarray(va, dtype=float) if isinstance(va, list) and len(va) == len(vb) else np.zeros(len(vb))
+            return (old + t * (np.asarray(vb, dtype=float) - old)).tolist()
+        return vb
+
+    out = {key: mix(key, pa.get(key), vb) for key, vb in b.params.items() if key != "runs"}
+    if isinstance(b.params.get("runs"), dict):  # per-run splines: interpolate the coefficients
         runs = {}
         for name, entry in b.params["runs"].items():
             old = (pa.get("runs") or {}).get(name)
-            cb = np.asarray(entry["coefficients"], dtype=float)
-            ca = np.asarray(old["coefficients"], dtype=float) if old is not None and len(old["coefficients"]) == cb.size else 0 * cb
-            runs[name] = {**entry, "coefficients": (ca + t * (cb - ca)).tolist()}
+            runs[name] = {**entry, "coefficients": mix("coefficients", None if old is None else old["coefficients"],
+                                                       entry["coefficients"])}
         out["runs"] = runs
     return type(b)(out)
+
+
+#: Parameters that are not coefficients (scales, knots, settings): never interpolated by a half step.
+FIXED_KEYS = ("time_constant_s", "knots_z", "centre_um", "half_range_um", "knots_s", "knots")
 
 
 def fit_with_effects(
@@ -385,18 +417,30 @@ def fit_with_effects(
     _check(grid, runs, effects, method)
     start_time = time.perf_counter()
     fitter = _Fitter(grid, runs, method, settings, effects, thermal_term)
-    # equation (22) alone first: the starting point, and the error without effects
-    base_model, _ = fitter.solve(fitter.state(PreisachModel(grid, np.zeros(grid.n_cells)), ()).ctx, (), ())
-    base = fitter.state(base_model, ())
-    cur = _State(base.model, tuple(fitter.effects), base.rss, base.ctx, {})
+    zero = fitter.state(PreisachModel(grid, np.zeros(grid.n_cells)), ())
+    base = None
+    if any(e.stage in (INPUT, SENSOR) for e in effects):
+        # equation (22) alone first: where input and sensor effects are linearised from
+        base_model, _ = fitter.solve(zero.ctx, (), ())
+        base = fitter.state(base_model, ())
+    start = base or zero
+    cur = _State(start.model, tuple(fitter.effects), start.rss, start.ctx, {})
     chosen = [e.fit_settings_grid()[0] for e in fitter.effects]
+    cur = fitter.converge(cur, tuple(chosen))
     if fitter.effects:
-        cur = fitter.converge(cur, tuple(chosen))
         for k, e in enumerate(fitter.effects):
             grid_k = e.fit_settings_grid()
             if len(grid_k) > 1:
                 cur, chosen[k] = _search(fitter, cur, chosen, k, grid_k)
     seconds = time.perf_counter() - start_time
+    # an effect no step could improve on stays at zero: fitted, with zero coefficients
+    final = []
+    for e, s in zip(cur.effects, chosen):
+        if not e.fitted:
+            cols = e.columns(cur.ctx, s)
+            e = e.with_fit(cur.ctx, s, np.zeros(cols.k), cols)
+        final.append(e)
+    cur = replace(cur, effects=tuple(final))
     model = replace(cur.model, effects=tuple(cur.effects))
     residuals = [(sensed(cur.effects, u) - r.outputs)[r.rows] for r, u in zip(runs, cur.ctx.predictions)]
     everything = np.concatenate(residuals)
@@ -404,7 +448,8 @@ def fit_with_effects(
     return JointFit(
         model=model, method=method, method_settings=getattr(fitter, "method_settings_used", {}), runs=runs,
         residuals=tuple(residuals), rmse=rmse(everything), nrmse=normalised(rmse(everything), measured),
-        max_abs=max_abs(everything), base_rmse=math.sqrt(base.rss / max(measured.size, 1)), seconds=seconds,
+        max_abs=max_abs(everything), seconds=seconds,
+        base_rmse=None if base is None else math.sqrt(base.rss / max(measured.size, 1)),
         settings={e.name: s for e, s in zip(fitter.effects, chosen)},
         info={**fitter.last_info, "solves": fitter.solves},
     )
@@ -451,3 +496,15 @@ def _search(fitter: _Fitter, cur: _State, chosen: list[dict], k: int, grid_k: li
     trial = list(chosen)
     trial[k] = setting
     return fitter.converge(best, tuple(trial)), setting
+
+
+def context_of(model: PreisachModel, runs: list[Run] | tuple[Run, ...],
+               effects: tuple[Effect, ...] | None = None) -> Context:
+    """The context of ``model`` with ``effects`` (default: its own) on ``runs``: where their terms are
+    linearised (the hysterons feel the measured output where measured)."""
+    runs = tuple(runs)
+    measured = np.concatenate([r.measured for r in runs])
+    lo, hi = float(np.min(measured)), float(np.max(measured))
+    effects = tuple(model.effects if effects is None else effects)
+    return _context(_Hysteresis(model.grid), model.grid, model.without_effects(), effects, runs,
+                    0.5 * (lo + hi), max(0.5 * (hi - lo), 1e-12))

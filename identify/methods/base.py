@@ -55,7 +55,7 @@ class Method(ABC):
 
     def fit(self, problem: Problem) -> "Method":
         """Identify a model from ``problem``; returns ``self``."""
-        if problem.n_measured > problem.n:
+        if problem.n_measured > problem.n_rows:
             raise IdentifyError(
                 f"M={problem.n_measured} measurements exceed the N={problem.n} applied inputs"
             )

@@ -122,7 +122,8 @@ def _nnls_on_operator(operator: RegressorOperator, rows: np.ndarray, y: np.ndarr
         return np.concatenate([g, -g[n_nonneg:]])
 
     # rounding of X^T r: entries of S are at most 1 (cells, mu0) or |v| (c_d)
-    largest = max(1.0, float(np.max(np.abs(operator.inputs[rows])))) if free else 1.0
+    inputs = operator.inputs[rows[rows < operator.inputs.size]]
+    largest = max(1.0, float(np.max(np.abs(inputs), initial=0.0))) if free else 1.0
     tol = GRADIENT_ULPS * np.finfo(float).eps * np.sqrt(rows.size) * largest * float(np.linalg.norm(b))
     result = lawson_hanson(matvec, rmatvec, P + free, b, tol=tol, max_iter=50 * (P + free))
     w = result.x[:P].copy()

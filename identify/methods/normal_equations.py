@@ -63,7 +63,7 @@ def measured_rows_matrix(problem: Problem) -> np.ndarray:
     ``min(M, P)`` products: ``S^T e_r`` for each measured row ``r`` when
     ``M < P``, else ``S e_k`` for each parameter ``k``.
     """
-    op, rows, p, n = problem.operator, problem.rows, problem.n_parameters, problem.n
+    op, rows, p, n = problem.operator, problem.rows, problem.n_parameters, problem.n_rows
     out = np.empty((rows.size, p))
     if rows.size < p:
         for block in _column_blocks(max(n, p), rows.size):
@@ -88,7 +88,7 @@ def normal_equations(problem: Problem, keep_rows: bool | None = None) -> NormalE
     p, rows, op = problem.n_parameters, problem.rows, problem.operator
     if keep_rows is None:
         keep_rows = rows.size * p <= DENSE_ROWS_LIMIT
-    full = np.zeros(problem.n)
+    full = np.zeros(problem.n_rows)
     full[rows] = y
     gradient = np.asarray(op.rmatvec(full), dtype=float).ravel()
     if keep_rows:
@@ -97,7 +97,7 @@ def normal_equations(problem: Problem, keep_rows: bool | None = None) -> NormalE
     else:
         x = None
         hessian = np.empty((p, p))
-        for cols in _column_blocks(problem.n, p):
+        for cols in _column_blocks(problem.n_rows, p):
             s_cols = np.asarray(op.matmat(_unit_block(p, cols)))
             masked = np.zeros_like(s_cols)
             masked[rows] = s_cols[rows]

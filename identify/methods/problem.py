@@ -75,6 +75,10 @@ class Problem:
     row_scale: ``(n,)`` or ``None``: every row of the design (regressor and
         extra columns) multiplied by it -- the joint fit's Gauss--Newton step
         through a sensor map (:mod:`identify.effects.joint`).
+    penalty: ``(r, k)`` or ``None``: rows acting on the extra columns'
+        coefficients alone, appended to the design and fitted to zero (a
+        roughness penalty); they are rows ``n .. n + r - 1`` of ``operator``
+        and are among ``rows`` (with ``measured`` 0), so ``n_rows = n + r``.
 
     ``regressor`` (dense ``S``, ``(n, P)``) and ``operator`` (the same as a
     matrix-free :class:`~identify.operators.RegressorOperator`) are built on
@@ -94,6 +98,7 @@ class Problem:
     extra: np.ndarray | None = field(default=None, repr=False)
     extra_nonneg: int = 0
     row_scale: np.ndarray | None = field(default=None, repr=False)
+    penalty: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
     def build(
@@ -110,6 +115,7 @@ class Problem:
         extra: np.ndarray | None = None,
         extra_nonneg: int = 0,
         row_scale: np.ndarray | None = None,
+        penalty: np.ndarray | None = None,
     ) -> "Problem":
         """A problem from the applied inputs (V) and the outputs (um) of every row.
 
@@ -166,8 +172,16 @@ class Problem:
             if regressor is not None:
                 raise IdentifyError("a dense regressor cannot be combined with a row scale")
         order = np.argsort(y, kind="stable") if np.all(known) else None
-        return cls(grid, v, thermal_term, rows, y[rows].copy(), order, initial, history, regressor, curves,
-                   extra, int(extra_nonneg) if extra is not None else 0, row_scale)
+        measured = y[rows].copy()
+        if penalty is not None:
+            penalty = np.asarray(penalty, dtype=float)
+            if extra is None or penalty.ndim != 2 or penalty.shape[1] != extra.shape[1]:
+                raise IdentifyError("penalty rows need extra columns of the same width")
+            rows = np.concatenate([rows, v.size + np.arange(penalty.shape[0])])
+            measured = np.concatenate([measured, np.zeros(penalty.shape[0])])
+            order = None
+        return cls(grid, v, thermal_term, rows, measured, order, initial, history, regressor, curves,
+                   extra, int(extra_nonneg) if extra is not None else 0, row_scale, penalty)
 
     # ---------------------------------------------------------- dimensions
     @property
@@ -178,6 +192,11 @@ class Problem:
     @property
     def n_measured(self) -> int:
         return self.rows.size
+
+    @property
+    def n_rows(self) -> int:
+        """Rows of ``operator``: the applied inputs, then the penalty rows (if any)."""
+        return self.n + (0 if self.penalty is None else int(self.penalty.shape[0]))
 
     @property
     def n_parameters(self) -> int:
@@ -219,8 +238,11 @@ class Problem:
         base = design_cache.regressor_operator(
             self.grid, self.inputs, self.thermal_term, self.initial, self.history
         )
-        op = base if self.extra is None else AugmentedOperator(base, self.extra, self.extra_nonneg)
-        return op if self.row_scale is None else RowScaledOperator(op, self.row_scale)
+        op = base if self.extra is None else AugmentedOperator(base, self.extra, self.extra_nonneg, self.penalty)
+        if self.row_scale is None:
+            return op
+        scale = np.concatenate([self.row_scale, np.ones(self.n_rows - self.n)])
+        return RowScaledOperator(op, scale)
 
     @property
     def measured_operator(self) -> LinearOperator:
@@ -337,7 +359,7 @@ class Problem:
         measured input sits on a wall ``c_d`` cannot be told apart from a
         uniform shift of the diagonal cells.
         """
-        if self.thermal_term and np.all(self.grid.on_walls(self.inputs[self.rows])):
+        if self.thermal_term and np.all(self.grid.on_walls(self.inputs[self.rows[self.rows < self.n]])):
             raise MethodNotApplicable(
                 f"{method} cannot identify the thermal term: every measured input sits on a "
                 "wall, where v is an affine function of the diagonal cells; measure an off-wall "

@@ -37,7 +37,7 @@ class _Objective:
 
     def __init__(self, problem: Problem, rows: np.ndarray, y: np.ndarray, col_scale: np.ndarray):
         self.op = problem.operator
-        self.n = problem.n
+        self.n = problem.n_rows
         self.n_cells = problem.n_cells
         self.rows = rows
         self.y = y
@@ -84,7 +84,7 @@ def solve_iterative(problem: Problem, weight: float | None) -> tuple[np.ndarray,
         norm = float(np.linalg.norm(np.asarray(op.matvec(e)).ravel()[rows]))
         col_scale[k] = np.sqrt(rows.size) / norm if norm > 0 else 1.0
     bounds = [(0.0, None)] * n + [(None, None)] * (p - n)
-    full = np.zeros(problem.n)
+    full = np.zeros(problem.n_rows)
     full[rows] = y
     gtol = 1e-9 * max(1.0, float(np.abs(np.asarray(op.rmatvec(full))).max()))
     data_scale = cell_column_scale(problem)

@@ -203,7 +203,7 @@ def _refine(problem, ne, r, lam, w, qp, h_ff_pinv, coupling) -> np.ndarray:
     op, rows = problem.operator, problem.rows
     h_cf = ne.hessian[:n, n:]
     for _ in range(REFINEMENT_STEPS):
-        resid = np.zeros(problem.n)
+        resid = np.zeros(problem.n_rows)
         resid[rows] = ne.y - np.asarray(op.matvec(w)).ravel()[rows]
         grad = np.asarray(op.rmatvec(resid)).ravel()
         grad[:n] -= lam * (r @ w[:n])

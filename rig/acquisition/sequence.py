@@ -7,6 +7,13 @@
 * ``check`` -- a check run for ``rig diagnose``: ``points`` set-points with
   random reversals, several step sizes and per-point dwells, and repeated
   set-points (:func:`identify.diagnosis.check_design`, seeded);
+* ``damped+check`` -- an identification run for a model with effects
+  (``rig identify --with``): the damped oscillation (with the thermal
+  point), then, without returning to saturation, a check design of
+  ``points`` points with its own dwells.  The damped oscillation alone is
+  square -- it has exactly as many points as equation (22) has parameters --
+  so it cannot tell an effect from the density; the check part adds the
+  redundancy and the variety (steps, dwells) that can;
 * ``FILE.csv`` -- set-points from a CSV file with a header line naming a
   ``v_V`` column (other columns are ignored, so a recorded trace
   ``t_s,v_V,deflection_um`` replays its inputs).  An optional ``dwell_s``
@@ -95,6 +102,10 @@ def read_setpoints(path: str | Path) -> np.ndarray:
     return read_setpoint_file(path)[0]
 
 
+#: Seed offset of the check part of ``damped+check`` (so it differs from a check run of the same seed).
+COMPOSITE_CHECK_SEED = 7919
+
+
 def sequence_dwells(
     sequence: str,
     window: VoltageWindow | None = None,
@@ -104,16 +115,44 @@ def sequence_dwells(
     v_max: float | None = None,
     points: int | None = None,
     seed: int | None = 0,
+    thermal_term: bool = True,
+    dwell: float | None = None,
+    choices: tuple[float, ...] | None = None,
 ) -> np.ndarray | None:
-    """Per-point dwell times (s): a check sequence's (same arguments as :func:`sequence_record`), or a
-    set-point file's ``dwell_s`` column; None for the other sequences and files without one."""
-    if sequence in ("damped", "random"):
-        return None
+    """Per-point dwell times (s): a check sequence's (same arguments as :func:`sequence_record`), a
+    set-point file's ``dwell_s`` column, or ``damped+check``'s (``dwell`` s, then the check design's);
+    None for the other sequences and files without one.
+
+    ``choices`` (``--dwells``): every point of the damped or random part waits one of these, drawn at
+    random with ``seed`` -- the varied dwells that tell a thermal lag's time constant from its size."""
+    if sequence in ("damped", "random", "damped+check"):
+        if window is None and sequence == "damped+check":
+            raise ValueError("a check sequence needs the heater's window")
+        n = (sequence_record(sequence.split("+")[0], window, levels=levels, v_min=v_min, v_max=v_max,
+                             points=None if sequence != "random" else points, seed=seed,
+                             thermal_term=thermal_term).n_points if (choices or sequence == "damped+check") else 0)
+        if choices:
+            first = np.random.default_rng(seed).choice(np.asarray(choices, dtype=float), size=n)
+        elif sequence == "damped+check":
+            first = np.full(n, 20.0 if dwell is None else float(dwell))
+        else:
+            return None
+        if sequence != "damped+check":
+            return first
+        check = _check_design(window, levels, v_min, v_max, points, _composite_seed(seed))[1].dwell_s
+        return np.concatenate([first, check])
+    if choices:
+        raise DataFileError("--dwells draws the dwells of a damped or random sequence; a check sequence "
+                            "and a file with a dwell_s column have their own")
     if sequence == "check":
         if window is None:
             raise ValueError("a check sequence needs the heater's window")
         return _check_design(window, levels, v_min, v_max, points, seed)[1].dwell_s
     return read_setpoint_file(sequence)[1]
+
+
+def _composite_seed(seed: int | None) -> int:
+    return COMPOSITE_CHECK_SEED + (0 if seed is None else int(seed))
 
 
 def default_grid(window: VoltageWindow, levels: int | None, v_min: float | None, v_max: float | None) -> Grid:
@@ -144,9 +183,18 @@ def sequence_record(
     thermal_term: bool = True,
 ) -> ExcitationRecord:
     """The excitation named by ``sequence`` (measure plan and dwell not yet set)."""
-    if points is not None and sequence not in ("random", "check"):
+    if points is not None and sequence not in ("random", "check", "damped+check"):
         raise DataFileError("--points sets the length of a random or check sequence: use it with --sequence "
-                            "random or check")
+                            "random, check or damped+check")
+    if sequence == "damped+check":
+        grid = default_grid(window, levels, v_min, v_max)
+        damped = Excitation.damped(grid, thermal_term)
+        _, design = _check_design(window, levels, v_min, v_max, points, _composite_seed(seed))
+        return ExcitationRecord(kind="damped+check", inputs=np.concatenate([damped.inputs, design.inputs]),
+                                levels=grid.levels, v_min=grid.v_min, v_max=grid.v_max, thermal_term=thermal_term,
+                                seed=seed, extra={"damped_points": int(damped.inputs.size),
+                                                  "check_points": int(design.inputs.size),
+                                                  "dwell_choices_s": list(_dwell_choices())})
     if sequence == "damped":
         return ExcitationRecord.from_excitation(Excitation.damped(default_grid(window, levels, v_min, v_max), thermal_term))
     if sequence == "random":
@@ -158,7 +206,8 @@ def sequence_record(
                                 v_max=grid.v_max, seed=seed, extra={"dwell_choices_s": list(_dwell_choices())})
     path = Path(sequence)
     if path.suffix.lower() != ".csv" and not path.exists():
-        raise DataFileError(f"--sequence {sequence!r}: expected damped, random, check or a CSV file of set-points")
+        raise DataFileError(f"--sequence {sequence!r}: expected damped, random, check, damped+check or a CSV file "
+                            "of set-points")
     v = read_setpoints(path)
     zeros = np.zeros_like(v)
     record = excitation_of_trace(Trace(zeros, v, zeros), levels, v_min, v_max,

@@ -43,13 +43,15 @@ VIRTUAL_WALL_S_PER_POINT = 0.0005
 def planned_points(sequence: str, levels: int | None, points: int | None, thermal_term: bool,
                    default_levels: int, default_points: int) -> int | None:
     """How many points the options ask for, without building the plan (None: a set-point file's rows)."""
-    if sequence == "damped":
+    extra = default_points if points is None else points
+    if sequence in ("damped", "damped+check"):
         big_l = default_levels if levels is None else levels
         if big_l < 1:
             return None  # the plan's own check says what is wrong
-        return big_l * (big_l + 1) // 2 + 1 + int(thermal_term)
+        damped = big_l * (big_l + 1) // 2 + 1 + int(thermal_term)
+        return damped + (extra if sequence == "damped+check" else 0)
     if sequence in ("random", "check"):
-        return default_points if points is None else points
+        return extra
     return None
 
 

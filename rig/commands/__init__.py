@@ -52,6 +52,10 @@ COMMANDS: tuple[CommandEntry, ...] = (
                  "Reproduce the paper's simulation study and print our results beside the paper's."),
     CommandEntry("validate", "rig.commands.validate", "validate",
                  "Apply the model stored in SESSION to the run given with --on and report its errors."),
+    CommandEntry("watch", "rig.commands.watch", "watch",
+                 "Serve a web page that follows TARGET -- a session, or a directory of sessions to pick from -- as "
+                 "it is written (by rig acquire in another process), until Ctrl-C.  A session that does not exist "
+                 "yet is waited for."),
 )
 
 BY_NAME: dict[str, CommandEntry] = {entry.name: entry for entry in COMMANDS}

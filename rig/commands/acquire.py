@@ -43,7 +43,7 @@ from ..output import print_json
 EXIT_ABORTED = 130
 
 #: Options that describe a new run; a resumed run takes all of them from its session.
-PLAN_OPTIONS = ("sequence", "levels", "v_min", "v_max", "thermal_term", "points", "seed", "dwell",
+PLAN_OPTIONS = ("sequence", "levels", "v_min", "v_max", "thermal_term", "points", "seed", "dwell", "dwells",
                 "settle", "poll", "transit", "readings", "measure", "out", "operator", "notes")
 
 
@@ -51,6 +51,19 @@ def _settings(dwell: float, settle: float | None, poll: float, transit: float, r
               schedule=None) -> DwellSettings:
     policy = FixedDwell(dwell) if settle is None else SettleDwell(RateBelow(settle), dwell, poll, readings)
     return DwellSettings(policy, Transit(transit), readings, None if schedule is None else tuple(schedule))
+
+
+def _dwell_choices(text: str | None) -> tuple[float, ...] | None:
+    """``--dwells 8,15,30,60`` as seconds (finite, >= 0); None when not given."""
+    if text is None:
+        return None
+    try:
+        values = tuple(float(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise AcquisitionError(f"--dwells {text!r}: expected seconds separated by commas, e.g. 8,15,30,60") from None
+    if not values or any(not (v == v and 0 <= v < float("inf")) for v in values):
+        raise AcquisitionError(f"--dwells {text!r}: every dwell must be a finite number of seconds >= 0")
+    return values
 
 
 def _config_for_resume(config_path: Path | None, session: Session) -> RigConfig:
@@ -89,8 +102,8 @@ def _report(summary: dict, as_json: bool) -> None:
                    "with --resume: the configuration stored in the session).")
 @click.option("--sequence", default="damped", show_default=True,
               help="damped (the damped oscillation), random (a validation input), check (a check run for "
-                   "rig diagnose, with its own dwells) or FILE.csv (a v_V column; an optional dwell_s column "
-                   "gives each point its own dwell).")
+                   "rig diagnose, with its own dwells), damped+check (both in one run: for rig identify --with) "
+                   "or FILE.csv (a v_V column; an optional dwell_s column gives each point its own dwell).")
 @click.option("--levels", "-L", type=int, help="Levels L of the grid [30; a FILE: none unless given].")
 @click.option("--v-min", type=float, help="Lower end of the grid (V) [0, or a FILE's minimum].")
 @click.option("--v-max", type=float, help="Upper end of the grid (V) [the heater's maximum, or a FILE's maximum].")
@@ -102,6 +115,9 @@ def _report(summary: dict, as_json: bool) -> None:
 @click.option("--dwell", type=float, default=20.0, show_default=True,
               help="Wait at each measured point and reversal point (s); with --settle, the longest wait; "
                    "a FILE's dwell_s column overrides it point by point.")
+@click.option("--dwells", metavar="S,S,...",
+              help="damped, random: each point waits one of these dwells (s), drawn at random with --seed "
+                   "(varied dwells identify a thermal lag; rig identify --with thermal_lag needs them).")
 @click.option("--settle", type=float, metavar="RATE",
               help="Wait until the deflection changes by less than RATE um/s (at most --dwell s).")
 @click.option("--poll", type=float, default=0.5, show_default=True, help="With --settle: seconds between checks.")
@@ -120,7 +136,7 @@ def _report(summary: dict, as_json: bool) -> None:
                                           "rig time on a real clock) after all.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.pass_context
-def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, points, seed, dwell, settle, poll,
+def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, points, seed, dwell, dwells, settle, poll,
             transit, readings, measure, out, resume_path, operator, notes, progress, yes, as_json):
     """Apply an excitation on the rig and record every point in the session OUT.
 
@@ -147,7 +163,8 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         window = cfg.heater.limits().window
         refuse_unless_confirmed("rig acquire", too_many_points(planned_points(  # before building it
             sequence, levels, points, thermal_term, DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS)), yes)
-        schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points, seed=seed)
+        schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points, seed=seed,
+                                   thermal_term=thermal_term, dwell=dwell, choices=_dwell_choices(dwells))
         settings = _settings(dwell, settle, poll, transit, readings, schedule)
         record = make_record(
             sequence_record(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points,

@@ -83,6 +83,10 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
     "--thermal-term/--no-thermal-term", default=True, show_default=True,
     help="Fit the linear thermal term c_d v of equation (22).",
 )
+@click.option("--with", "with_effects", multiple=True, metavar="EFFECT[,EFFECT...]",
+              help="Fit these unmodelled effects jointly with the density and keep them in the model "
+                   "(ls, smooth_nn): thermal_lag, baseline_drift, ambient_drift, joule_power, creep, "
+                   "sensor_nonlinearity, reversible[:monotone], interaction, first_point.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--save", type=click.Path(path_type=Path),
               help="Also write the model as JSON here (several files: into this directory, <stem>.json each).")
@@ -96,9 +100,8 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
               help="Processes for several files (default: one per core, at most one per file; one when the fits are too small to repay starting workers).")
 @click.option("--yes", is_flag=True,
               help="Fit even when the estimate is over the documented limits (30 min or 4 GB per file).")
-def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, as_json, save,
-             name,
-             store, force, partial, jobs, yes):
+def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, with_effects,
+             as_json, save, name, store, force, partial, jobs, yes):
     """Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um).
 
     From a session, the fit uses the measured points; every applied point
@@ -111,8 +114,13 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     if name is not None and not store:
         raise UserError("--name stores the model; it cannot go with --no-store")
     paths = list(files)
+    effects = tuple(e.strip() for spec in with_effects for e in spec.split(",") if e.strip())
+    if effects:
+        from identify.effects import parse_effects
+
+        parse_effects(effects)  # unknown names, options or repeats: one line before any file is read
     options = IdentifyOptions(levels, v_min, v_max, method, measurements, seed, thermal_term, store, name, force,
-                              partial, solver=solver, curves=curves)
+                              partial, solver=solver, curves=curves, effects=effects)
     targets = save_targets(save, paths)
     start = time.perf_counter()
     workers = default_workers(len(paths), jobs)

@@ -15,7 +15,7 @@ from sessions.formats import FileKind, detect
 
 from ..errors import UserError
 from ..output import format_table, print_json, unit_token
-from ..session_input import open_run
+from ..session_input import open_run, run_of
 
 
 def load_model(path: Path) -> PreisachModel:
@@ -47,14 +47,19 @@ def predict(model_file, file, partial, as_json):
 
     Every applied input of FILE is predicted, the memory starting in
     negative saturation; RMSE and maximum error are over the points where
-    FILE measured the output (for a CSV trace, every row).
+    FILE measured the output (for a CSV trace, every row). A model with
+    effects acts on the whole run (its time stamps, and a session's
+    dwells); an effect that needs what the run does not record is refused.
     """
     model = load_model(model_file)
     data = open_run(file, allow_partial=partial)
     if (model.input_unit, model.output_unit) != (data.input_unit, data.output_unit):
         raise UserError(f"{file}: records {data.input_unit} in and {data.output_unit} out, but the model in "
                         f"{model_file} maps {model.input_unit} to {model.output_unit}")
-    prediction = model.predict(data.inputs)
+    if model.effects:
+        prediction = model.predict_run(run_of(data))
+    else:
+        prediction = model.predict(data.inputs)
     measured = np.isfinite(data.outputs)
     err = prediction[measured] - data.outputs[measured]
     result = {"prediction_um": prediction, "rmse_um": rmse(err), "max_abs_um": max_abs(err),

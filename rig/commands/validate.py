@@ -52,6 +52,8 @@ def validate(session, model_name, run, partial, curves, as_json):
         "output_range": result.output_range,
         "input_unit": data.input_unit,
         "output_unit": data.output_unit,
+        "effects": [e.name for e in record.model.effects],
+        **({"nuisance": result.nuisance} if result.nuisance else {}),
     }
     if as_json:
         print_json(summary)

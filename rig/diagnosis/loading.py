@@ -36,7 +36,7 @@ from sessions.recording import Recording
 
 from ..curve_selection import selected_rows
 from ..errors import UserError
-from ..session_input import open_run, partial_state, same_file
+from ..session_input import open_run, partial_state, run_of, same_file
 
 
 #: Measured points per run made of curves that the default stride aims at (the carry-over matrix
@@ -62,23 +62,6 @@ class Loaded:
             if not any(np.array_equal(m.t_s, s.t_s) and np.array_equal(m.output, s.output) for s in seen):
                 seen.append(m)
         return seen
-
-
-def run_of(data: Recording, name: str, rows: np.ndarray | None = None) -> Run:
-    """A :class:`Run` from a recording: a session's time stamps and dwells, or a CSV trace's times,
-    in the recording's units; ``rows`` (measured rows kept, default all) leaves the others unmeasured."""
-    s = data.session
-    units = {"input_unit": data.input_unit, "output_unit": data.output_unit, "by_curves": data.curves is not None}
-    outputs = data.outputs if s is None else s.outputs
-    if rows is not None:
-        kept = np.full(outputs.shape, np.nan)
-        kept[rows] = outputs[rows]
-        outputs = kept
-    if s is None:
-        return Run(name, data.inputs, outputs, data.t_s, np.full(data.inputs.size, np.nan), **units)
-    readings = s.excitation.dwell.get("readings")
-    return Run(name, s.inputs, outputs, s.t_s, s.samples["dwell_s"],
-               int(readings) if isinstance(readings, (int, float)) else None, **units)
 
 
 def thin_rows(curves: np.ndarray, rows: np.ndarray, stride: int) -> np.ndarray:

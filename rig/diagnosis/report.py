@@ -79,6 +79,7 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
             "rmse_with_um": leading.rmse_um if leading and d.verdict.status in ("explained", "ambiguous") else None,
             "share_closed": d.verdict.share_closed,
             "not_visible": [c.effect for c in d.candidates if not c.visible],
+            "model": kept_json(d, fit),
         },
         "not_assessed": [{"effect": e, "reason": r} for e, r in d.not_assessed],
         "warnings": list(warnings) + list(d.warnings),
@@ -89,6 +90,27 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
         "units": {"input": d.input_unit, "output": d.output_unit},
         "drift_monitor": drift_monitor,
     }
+
+
+def identify_command(d: Diagnosis, fit: list[str]) -> str | None:
+    """The ``rig identify`` command that stores the kept model (one identification run only)."""
+    if d.kept is None or len(fit) != 1:
+        return None
+    path, _, curves = fit[0].partition(":")
+    parts = ["rig identify", path, "--method", d.method]
+    if curves in ("even", "odd"):
+        parts += ["--curves", curves]
+    return " ".join(parts + ["--with", ",".join(d.kept.effects)])
+
+
+def kept_json(d: Diagnosis, fit: list[str]) -> dict[str, Any] | None:
+    """``verdict.model``: the model ``rig identify --with`` stores for the named effect(s), held out."""
+    k = d.kept
+    if k is None:
+        return None
+    return {"effects": list(k.effects), "rmse_um": k.rmse_um, "shrink": k.shrink,
+            "base_rmse_um": d.fit_only_rmse_um, "params": k.params, "seconds": k.seconds, "error": k.error,
+            "command": identify_command(d, fit)}
 
 
 def _fmt(x: float | None, spec: str = ".4g") -> str:
@@ -151,6 +173,17 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
         share = f", {100 * c.share_closed:.0f} % of the excess over the noise floor" if c.share_closed is not None else ""
         lines.append(f"  with {chosen}: {_fmt(c.rmse_um)} {u}, shrink {100 * c.shrink:.0f} % "
                      f"[{100 * c.ci[0]:.0f}, {100 * c.ci[1]:.0f}]{share}.")
+    k = d.kept
+    if k is not None:
+        what = " + ".join(k.effects)
+        if k.error is not None:
+            lines.append(f"Keep it: no model with {what} can be identified from the identification run(s) -- {k.error}.")
+        else:
+            cmd = identify_command(d, fit)
+            how = f"`{cmd}` stores" if cmd else "rig identify --with stores"
+            lines.append(f"Keep it: {how} the model with {what}, fitted on the identification run(s) alone: "
+                         f"held-out RMSE {_fmt(k.rmse_um)} {u} against {_fmt(d.fit_only_rmse_um)} {u} for the base "
+                         f"model as identified, shrink {100 * k.shrink:.0f} %.")
     lines.append("")
     lines.append("Where (residual = model - measured; bins that stand out beyond the noise):")
     any_out = False
