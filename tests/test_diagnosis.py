@@ -243,6 +243,7 @@ def test_no_effect_is_no_gap_and_bad_check_points_are_reported_not_fatal():
         diagnose([fit], [], GRID)
 
 
+@pytest.mark.slow
 def test_thermal_lag_cannot_be_seen_when_every_dwell_is_long():
     fit, check = synthetic(GRID, seed=5)
 

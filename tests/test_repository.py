@@ -51,11 +51,12 @@ def test_benchmarks_are_scripts_not_an_installed_package(tmp_path):
     code = "import importlib.util, sys; sys.stdout.write(str(importlib.util.find_spec('benchmarks')))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60)
     assert done.stdout == "None", done.stdout + done.stderr
-    # every script runs from its file: it compiles, and imports the installed packages, not its neighbours
+    # every script runs from its file (from a checkout: the repository's packages, or benchmarks/ as a
+    # namespace package from the root, as `python -m benchmarks.withheld.run` does)
     for script in sorted((REPO / "benchmarks").glob("*.py")):
         text = script.read_text(encoding="utf-8")
         compile(text, str(script), "exec")
-        assert not re.search(r"^\s*from \.|^\s*(from|import) benchmarks\b", text, re.M), script.name
+        assert not re.search(r"^\s*from \.", text, re.M), script.name  # run as a file, a relative import fails
     done = subprocess.run([sys.executable, str(REPO / "benchmarks" / "cold_start.py"), "--help"],
                           capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert done.returncode == 0 and "usage" in done.stdout, done.stderr[-500:]
