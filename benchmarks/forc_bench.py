@@ -40,7 +40,9 @@ from sessions.forc_import import import_forc
 from sessions.micromag import read_forc
 from sessions.recording import load_recording
 
-SHARED = Path("/work/shared/data/forc/MD00-2361.forc")
+#: The shared measurement, ``../shared/data/forc/`` relative to the repository root (this file is in
+#: ``benchmarks/`` of the repository).
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "forc" / "MD00-2361.forc"
 
 
 def numbers(text: str, kind=int) -> list:

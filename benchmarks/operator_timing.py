@@ -1,6 +1,6 @@
 """Timings of the matrix-free operator, the square solves and the forward model.
 
-Run as ``python -m benchmarks.operator_timing``; prints a Markdown table
+Run as ``python benchmarks/operator_timing.py``; prints a Markdown table
 (milliseconds, medians of repeated runs) for the damped oscillation with
 the thermal point at L = 30, 100, 200, and an 83,600-point random input at
 L = 40 (the size of issue 9's FORC data).
@@ -16,7 +16,7 @@ from identify import damped_oscillation, random_input
 from identify.operators import RegressorOperator
 from identify.square import SquareSolver, sparse_inverse
 
-from .cases import simulated_actuator as vo2_actuator
+from rig.bench.cases import simulated_actuator as vo2_actuator
 
 
 def median_ms(f, repeats: int = 5) -> float:

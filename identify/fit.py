@@ -8,6 +8,7 @@ all go through it, so they treat the methods alike.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -95,6 +96,7 @@ def fit_sequence(
     history: np.ndarray | None = None,
     settings: dict[str, Any] | None = None,
     curves: np.ndarray | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> FitReport:
     """Identify a model from inputs (V) and outputs (um) of equal length ``n``.
 
@@ -102,7 +104,9 @@ def fit_sequence(
     choose at random with ``seed``) are alternatives; with neither, every row
     with a finite output is used.  ``curves`` ``(n,)`` numbers the
     first-order reversal curve of every row (-1: none), for methods that
-    identify from curves (``everett``).
+    identify from curves (``everett``).  ``progress``, when given, is called
+    with the name of each stage as it starts (``"fitting"``, ``"scoring"``):
+    the caller's hook for showing a long fit's progress (nothing here prints).
     """
     inputs = np.asarray(inputs, dtype=float)
     outputs = np.asarray(outputs, dtype=float)
@@ -114,7 +118,11 @@ def fit_sequence(
         rows = measurement_rows(grid, inputs, measurements, seed, thermal_term)
     estimator = make_method(method, **(settings or {}))
     problem = Problem.build(grid, inputs, outputs, rows, thermal_term, initial, history, curves=curves)
+    if progress is not None:
+        progress("fitting")
     estimator.fit(problem)
+    if progress is not None:
+        progress("scoring")
     fitted = problem.fitted(estimator.parameters_)[problem.rows]
     err = fitted - problem.measured
     return FitReport(

@@ -13,23 +13,53 @@ import sys
 
 import click
 
-from . import __version__
-from .errors import RIG_FAULTS, USER_ERRORS, RigFault, UserError
+from .commands import BY_NAME, load
+from .errors import RigFault, UserError, is_rig_fault, is_user_error
 
 
 class RigGroup(click.Group):
-    """A click group that turns domain errors into one-line messages."""
+    """A click group that turns domain errors into one-line messages.
+
+    Its subcommands are those of :data:`rig.commands.COMMANDS`, each imported
+    only when it runs (see :mod:`rig.commands`); commands added with
+    :meth:`add_command` (tests) come first.
+    """
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*self.commands, *BY_NAME})
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name in self.commands:
+            return self.commands[name]
+        entry = BY_NAME.get(name)
+        return None if entry is None else load(entry)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        """``rig --help``'s command list, from the registry's one-line help: no command is imported."""
+        names = self.list_commands(ctx)
+        if not names:
+            return
+        limit = formatter.width - 6 - max(len(name) for name in names)  # as click.Group does
+        rows = []
+        for name in names:
+            if name in self.commands:
+                rows.append((name, self.commands[name].get_short_help_str(limit)))
+            else:
+                rows.append((name, click.Command(name, help=BY_NAME[name].short_help).get_short_help_str(limit)))
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
 
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
-        except USER_ERRORS as exc:
-            raise UserError(str(exc)) from None
-        except RIG_FAULTS as exc:
-            raise RigFault(str(exc)) from None
         except (click.exceptions.Exit, click.ClickException, click.Abort, KeyboardInterrupt, SystemExit):
             raise
-        except Exception as exc:  # a bug: keep it to one line unless debugging
+        except Exception as exc:
+            if is_user_error(exc):
+                raise UserError(str(exc)) from None
+            if is_rig_fault(exc):
+                raise RigFault(str(exc)) from None
+            # a bug: keep it to one line unless debugging
             if os.environ.get("RIG_DEBUG"):
                 raise
             click.echo(
@@ -40,25 +70,16 @@ class RigGroup(click.Group):
 
 
 @click.group(cls=RigGroup, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(__version__, prog_name="rig")
+@click.version_option(package_name="vo2rig", prog_name="rig")
 def cli() -> None:
     """Preisach hysteresis identification for the VO2 microactuator rig."""
 
 
-def _register() -> None:
-    from .commands import COMMANDS
-
-    for command in COMMANDS:
-        cli.add_command(command)
-
-
-_register()
-
-
-def main() -> None:
-    """Console entry point: every error is one line on stderr."""
+def main(args: list[str] | None = None) -> None:
+    """Console entry point (``args``: the arguments, default ``sys.argv[1:]``): every error is one
+    line on stderr; always ends with :class:`SystemExit` carrying the exit code."""
     try:
-        code = cli.main(prog_name="rig", standalone_mode=False)
+        code = cli.main(args=args, prog_name="rig", standalone_mode=False)
     except click.UsageError as exc:
         hint = f" (see '{exc.ctx.command_path} --help')" if exc.ctx is not None else ""
         click.echo(f"Error: {' '.join(exc.format_message().split())}{hint}", err=True)

@@ -26,6 +26,7 @@ behind ``rig acquire``, ``rig identify``, ``rig diagnose`` and ``rig report``.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -123,10 +124,23 @@ def _bench(s: DemoSettings) -> SimulatedBench:
 
 
 def acquire_step(s: DemoSettings, result: DemoResult) -> None:
+    """Record both runs; if the simulated rig fails (an effect so strong that the PSD saturates),
+    remove what this run wrote -- demo sessions, not data -- so that ``--out`` can be used again,
+    and say which setting caused it (exit 2: the simulated device did what it was told)."""
+    from drivers.errors import DriverError
+
     bench = _bench(s)
     t0 = time.perf_counter()
-    simulate_fit_run(bench, result.fit_path)
-    simulate_check_run(bench, result.check_path)
+    try:
+        simulate_fit_run(bench, result.fit_path)
+        simulate_check_run(bench, result.check_path)
+    except DriverError as exc:
+        for path in (result.fit_path, result.check_path):
+            path.unlink(missing_ok=True)
+        setting = f"--effect {s.effect} --strength {s.effect_strength:g}" if s.effect else "the ideal device"
+        raise UserError(f"{setting}: the simulated rig cannot record the demo's runs ({exc}); nothing was "
+                        f"kept in {result.out}; choose a smaller --strength (the demo's own: "
+                        f"{DEMO_STRENGTHS.get(s.effect, 0):g})") from None
     result.acquire_seconds = time.perf_counter() - t0
 
 
@@ -167,21 +181,33 @@ def report_step(record: ModelRecord, check: Recording, out: Path, result: DemoRe
     result.figures += [p for p in written if p.suffix == ".png"]
 
 
-def run_demo(settings: DemoSettings, out: str | Path) -> DemoResult:
+def run_demo(settings: DemoSettings, out: str | Path,
+             progress: Callable[[str], None] | None = None) -> DemoResult:
     """Acquire, identify, diagnose and report into the directory ``out`` (created; refused when it
-    already holds a demo's sessions)."""
+    already holds a demo's sessions).  ``progress`` is called with each step's name as it starts."""
+    step = progress or (lambda name: None)
     out = Path(out)
     _fresh(out)
     points = Excitation.damped(_bench(settings).grid(), True).inputs.size
     if settings.measurements is not None and not 1 <= settings.measurements <= points:
         raise UserError(f"--measurements {settings.measurements} must be between 1 and the {points} points "
                         f"of the damped oscillation at L={settings.levels}")
+    created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     result = DemoResult(settings, out, out / FIT_SESSION, out / CHECK_SESSION)
-    acquire_step(settings, result)
+    try:
+        step("1/4 acquiring")
+        acquire_step(settings, result)
+    except UserError:
+        if created and not any(out.iterdir()):
+            out.rmdir()
+        raise
     check = open_run(result.check_path, allow_partial=False)
     result.check_points = int(check.inputs.size)
+    step("2/4 identifying")
     shown = identify_step(settings, check, result)
+    step("3/4 diagnosing")
     diagnose_step(out, result)
+    step("4/4 reporting")
     report_step(shown, check, out, result)
     return result

@@ -13,28 +13,52 @@
 
 from __future__ import annotations
 
+import sys
+
 import click
 
-from drivers.errors import CodecError, ConfigError, DriverError, InstrumentBusy, LimitError, ServeError
-from identify.errors import IdentifyError
-from rig.acquisition.errors import AcquisitionError
-from sessions.errors import DataFileError, StorageError
-
-#: Exceptions meaning "what the user gave cannot be used" (exit 2).
-USER_ERRORS: tuple[type[BaseException], ...] = (
-    IdentifyError,
-    DataFileError,
-    ConfigError,
-    LimitError,
-    CodecError,
-    ServeError,
-    AcquisitionError,
-    InstrumentBusy,
+#: Exceptions meaning "what the user gave cannot be used" (exit 2), as (module, class name).
+USER_ERRORS: tuple[tuple[str, str], ...] = (
+    ("identify.errors", "IdentifyError"),
+    ("sessions.errors", "DataFileError"),
+    ("drivers.errors", "ConfigError"),
+    ("drivers.errors", "LimitError"),
+    ("drivers.errors", "CodecError"),
+    ("drivers.errors", "ServeError"),
+    ("rig.acquisition.errors", "AcquisitionError"),
+    ("drivers.errors", "InstrumentBusy"),
 )
 
-#: Exceptions meaning "the rig failed while being driven" (exit 3): the instrument, its link, or the
-#: storage the session is written to (disk full, I/O error, the file removed underneath).
-RIG_FAULTS: tuple[type[BaseException], ...] = (DriverError, StorageError)
+#: Exceptions meaning "the rig failed while being driven" (exit 3), as (module, class name): the
+#: instrument, its link, or the storage the session is written to (disk full, I/O error, the file removed).
+RIG_FAULTS: tuple[tuple[str, str], ...] = (("drivers.errors", "DriverError"), ("sessions.errors", "StorageError"))
+
+
+def _loaded(kinds: tuple[tuple[str, str], ...]) -> tuple[type[BaseException], ...]:
+    """The classes of ``kinds`` whose modules are imported.
+
+    An exception can only be an instance of a class whose module has been
+    imported, so this never needs to import one: the ``rig`` command starts
+    without importing the drivers (pymodbus), the sessions (h5py) or the
+    numerics just to be able to name their errors.
+    """
+    found = []
+    for module, name in kinds:
+        mod = sys.modules.get(module)
+        if mod is not None:
+            found.append(getattr(mod, name))
+    return tuple(found)
+
+
+def is_user_error(exc: BaseException) -> bool:
+    """Whether ``exc`` is one of :data:`USER_ERRORS` (bad input: exit 2)."""
+    return isinstance(exc, _loaded(USER_ERRORS))
+
+
+def is_rig_fault(exc: BaseException) -> bool:
+    """Whether ``exc`` is one of :data:`RIG_FAULTS` (the instrument or its link: exit 3)."""
+    return isinstance(exc, _loaded(RIG_FAULTS))
+
 
 #: Exit code for bad input (as click uses for usage errors).
 EXIT_BAD_INPUT = 2

@@ -56,3 +56,12 @@ def format_table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
 def unit_token(unit: str) -> str:
     """A unit as part of a column or key name: ``um`` -> ``rmse_um``, ``A m^2`` -> ``rmse_Am^2``."""
     return "".join(unit.split()) or "1"
+
+
+def nrmse_text(value: float) -> str:
+    """The normalised RMSE as people read it: ``0.00184 of the output range``.
+
+    One convention everywhere -- tables, JSON (``nrmse``), ``report.md`` and
+    figures: a fraction of the output range, never a percent.
+    """
+    return f"{value:.3g} of the output range" if math.isfinite(value) else "- (no output range)"

@@ -26,8 +26,6 @@ import multiprocessing.pool
 import os
 from typing import Callable, Iterator, Sequence, TypeVar
 
-from tqdm import tqdm
-
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -108,6 +106,8 @@ def run_parallel(
     runs in this process.  The tqdm bar goes to stderr and only to a
     terminal (``progress=False`` silences it).
     """
+    from tqdm import tqdm  # here: a command that never runs a batch need not import it at start-up
+
     bar = tqdm(total=len(jobs), desc=desc, unit=unit, dynamic_ncols=True, disable=None if progress else True)
     with bar:
         if workers <= 1 or len(jobs) <= 1:

@@ -24,6 +24,7 @@ its writer).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -275,8 +276,9 @@ def _effects_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: I
     return run
 
 
-def fit_job(job: IdentifyJob) -> FitReport:
-    """Fit one planned job (runs in a worker process in batches); the model carries the run's units."""
+def fit_job(job: IdentifyJob, progress: Callable[[str], None] | None = None) -> FitReport:
+    """Fit one planned job (runs in a worker process in batches); the model carries the run's units.
+    ``progress``: see :func:`identify.fit.fit_sequence` (the fit of a model without effects reports stages)."""
     settings = None if job.solver is None else {"solver": job.solver}
     try:
         if job.effects:
@@ -284,7 +286,8 @@ def fit_job(job: IdentifyJob) -> FitReport:
                              settings=settings)
         else:
             report = fit_sequence(job.grid, job.inputs, job.outputs, job.method, rows=job.rows,
-                                  thermal_term=job.thermal_term, settings=settings, curves=job.curves)
+                                  thermal_term=job.thermal_term, settings=settings, curves=job.curves,
+                                  progress=progress)
     except IdentifyError as exc:
         if job.label is None:
             raise

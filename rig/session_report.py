@@ -26,6 +26,7 @@ from identify.validation import ValidationReport, model_path
 from sessions import ModelRecord, Session
 from sessions.recording import Recording
 
+from .output import nrmse_text
 from .plots import density_figure, loop_figure, residual_figure, save_figure, time_figure
 from .plots.style import DEFLECTION, HEATER_VOLTAGE, Quantity, display_unit, ratio_unit
 from .scoring import score_model
@@ -74,7 +75,7 @@ def run_figures(run: ScoredRun, record: ModelRecord, prefix: str, what: str) -> 
         f"{prefix}residual.png": residual_figure(
             d.inputs[s.rows], s.residual, branches(d.inputs)[s.rows], vq, yq,
             title=f"Residual, {what.lower()}: RMSE {s.rmse:.3g} {display_unit(yq.unit)}, "
-                  f"{100 * s.nrmse:.3g} % of range\n{name}"),
+                  f"nRMSE {nrmse_text(s.nrmse)}\n{name}"),
     }
 
 
@@ -141,7 +142,7 @@ def _score_rows(score: ValidationReport, unit: str) -> list[tuple[str, str]]:
     return [
         ("points predicted / compared", f"{score.n_points} / {score.n_measured}"),
         ("RMSE", f"{_fmt(score.rmse)} {unit}"),
-        ("normalised RMSE (of the output range)", f"{_fmt(100 * score.nrmse)} % (range {_fmt(score.output_range)} {unit})"),
+        ("normalised RMSE", f"{nrmse_text(score.nrmse)} ({_fmt(score.output_range)} {unit})"),
         ("maximum error", f"{_fmt(score.max_abs)} {unit}"),
     ]
 
@@ -182,7 +183,7 @@ def summary_markdown(fitted: ScoredRun, record: ModelRecord, validation: ScoredR
         ("c_d", f"{_fmt(m.c_d)} {ratio_unit(yq.unit, vq.unit)}"),
         ("fitted on", used),
         ("fit RMSE (points used)", f"{_fmt(metrics.get('rmse', float('nan')))} {ou}, "
-                                   f"{_fmt(100 * metrics.get('nrmse', float('nan')))} % of the output range"),
+                                   f"nRMSE {nrmse_text(metrics.get('nrmse', float('nan')))}"),
         ("fit time", f"{_fmt(metrics.get('seconds', float('nan')))} s"),
         ("stored", f"{record.created_at} by vo2rig {record.software_version}"),
     ])

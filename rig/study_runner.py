@@ -13,6 +13,10 @@ from __future__ import annotations
 import math
 import multiprocessing
 
+# The methods import scipy.optimize and scipy.fft on first use (so that the rig command does not pay for
+# them at start-up); the study's workers import this module, so no trial's fit time includes an import.
+import scipy.fft  # noqa: F401
+import scipy.optimize  # noqa: F401
 from tqdm import tqdm
 
 from identify.study import StudySetup, TrialResult, run_trials

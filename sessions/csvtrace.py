@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DataFileError
+from .formats import FileKind, detect
 from .textfiles import finite_number, read_bytes
 
 HEADER = ("t_s", "v_V", "deflection_um")
@@ -39,12 +40,20 @@ class Trace:
 
 
 def read_csv_rows(path: Path) -> list[list[str]]:
-    """Every row of a UTF-8 CSV file as strings; :class:`DataFileError` saying why it cannot be read."""
+    """Every row of a UTF-8 CSV file as strings; :class:`DataFileError` saying why it cannot be read
+    (and, for a file of another kind, what it is: a session, a MicroMag file, binary data)."""
+    kind = detect(path)
+    if kind is FileKind.HDF5:
+        raise DataFileError(f"{path}: an HDF5 file (a session?), not a CSV file")
+    if kind is FileKind.MICROMAG:
+        raise DataFileError(f"{path}: a MicroMag FORC data file, not a CSV file (rig import it with --format micromag)")
+    if kind is FileKind.BINARY:
+        raise DataFileError(f"{path}: binary data, not a text CSV file")
     raw = read_bytes(path, "a CSV file")
     try:
         text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise DataFileError(f"{path}: not a text (UTF-8) CSV file") from None
+    except UnicodeDecodeError as exc:
+        raise DataFileError(f"{path}: not a UTF-8 text CSV file (byte {exc.start} is not UTF-8)") from None
     return list(csv.reader(io.StringIO(text, newline="")))
 
 

@@ -12,7 +12,8 @@ from identify import Grid
 
 from .csvtrace import read_trace
 from .errors import DataFileError
-from .reader import Session, is_hdf5, read_session
+from .formats import HDF5_SUFFIXES, FileKind, detect, not_a_run
+from .reader import Session, read_session
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,10 +45,24 @@ class Recording:
 
 
 def load_recording(path: str | os.PathLike) -> Recording:
-    """Read ``path`` as a session if it is an HDF5 file, else as a CSV trace."""
+    """Read ``path`` as a session if it is an HDF5 file, as a CSV trace if it is text.
+
+    The format is judged by content (:func:`sessions.formats.detect`): a
+    file that is neither is refused saying what it is.
+    """
     path = Path(path)
-    if not is_hdf5(path):
-        trace = read_trace(path)
+    kind = detect(path)
+    if kind not in (FileKind.HDF5, FileKind.TEXT, FileKind.EMPTY):
+        raise DataFileError(not_a_run(path, kind))
+    if kind is not FileKind.HDF5:
+        try:
+            trace = read_trace(path)
+        except DataFileError as exc:
+            if path.suffix.lower() not in HDF5_SUFFIXES:
+                raise
+            why = str(exc).removeprefix(f"{path}: ")
+            raise DataFileError(f"{path}: not an HDF5 file, so not a session although named like one, "
+                                f"and not a CSV trace either ({why})") from None
         return Recording(path, trace.v_V, trace.deflection_um, None, "V", "um", t_s=trace.t_s)
     session = read_session(path)
     if session.n_samples == 0:

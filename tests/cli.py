@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -20,11 +21,15 @@ class Run:
         return json.loads(self.out)
 
 
-def rig(*args, timeout: float = 120, input: str | None = None) -> Run:
+def rig_command() -> list[str]:
+    """The installed ``rig`` console script of this environment (else ``python -m rig``)."""
     exe = shutil.which("rig", path=os.path.dirname(sys.executable)) or shutil.which("rig")
-    cmd = [exe] if exe else [sys.executable, "-m", "rig"]
+    return [exe] if exe else [sys.executable, "-m", "rig"]
+
+
+def rig(*args, timeout: float = 120, input: str | None = None) -> Run:
     p = subprocess.run(
-        [*cmd, *map(str, args)], capture_output=True, text=True, timeout=timeout, input=input,
+        [*rig_command(), *map(str, args)], capture_output=True, text=True, timeout=timeout, input=input,
         env={**os.environ, "RIG_DEBUG": ""},
     )
     return Run(p.returncode, p.stdout, p.stderr)
@@ -40,12 +45,43 @@ def assert_one_line_error(run: Run, *fragments: str) -> None:
         assert f.lower() in lines[0].lower(), (f, lines[0])
 
 
-def rig_here(*args) -> Run:
-    """Run a rig command in this process: the same streams and exit codes, without
-    the start-up time of a new interpreter (for tests that run many commands)."""
+class _EntryPoint:
+    """``rig.cli.main`` in the shape CliRunner invokes: the console script's own error handling."""
+
+    name = "rig"
+
+    def main(self, args, prog_name=None, **_):
+        from rig.cli import main
+
+        main(list(args))
+
+
+def rig_here(*args, input: str | None = None) -> Run:
+    """Run a rig command in this process, through the console script's entry point: the same
+    streams, messages and exit codes, without the start-up time of a new interpreter (for tests
+    of what a command says and does; the process itself -- signals, start-up -- needs :func:`rig`)."""
     from click.testing import CliRunner
 
-    from rig.cli import cli
-
-    result = CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+    result = CliRunner().invoke(_EntryPoint(), [str(a) for a in args], input=input, catch_exceptions=False,
+                                env={"RIG_DEBUG": ""})
     return Run(result.exit_code, result.stdout, result.stderr)
+
+
+def serve_sim(*args, cwd=None):
+    """Start ``rig serve-sim ARGS --json`` in its own process; ``(process, endpoints)`` once it listens."""
+    proc = subprocess.Popen(
+        [*rig_command(), "serve-sim", *map(str, args), "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, cwd=cwd,
+    )
+    line = proc.stdout.readline()
+    if not line:
+        proc.wait(10)
+        raise AssertionError(proc.stderr.read())
+    return proc, json.loads(line)
+
+
+def stop(proc):
+    """Ctrl-C a ``serve_sim`` process; its exit code and stderr."""
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=20)
+    return proc.returncode, err

@@ -20,6 +20,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pytest
+
+#: The repository's root directory.
+REPO = Path(__file__).resolve().parents[1]
+#: The shared real FORC measurement: ``../shared/data/forc/`` relative to the repository root, in CI and in
+#: every clone (never an absolute path: that made the real-data tests skip silently everywhere else).
+SHARED_FORC = REPO.parent / "shared" / "data" / "forc" / "MD00-2361.forc"
+
+
+def shared_forc() -> Path:
+    """The shared measurement; a test that needs it fails, never skips, when it is not there."""
+    if not SHARED_FORC.is_file():
+        pytest.fail(f"the shared FORC measurement is missing: expected {SHARED_FORC} "
+                    "(../shared/data/forc/MD00-2361.forc beside the repository)")
+    return SHARED_FORC
 
 
 def engineering(x: float) -> str:

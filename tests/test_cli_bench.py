@@ -6,10 +6,11 @@ import pytest
 from identify import damped_oscillation
 from identify.methods import DAMPED_METHODS
 
-from .cli import assert_one_line_error, rig
+from .cli import assert_one_line_error, rig_here
 from .conftest import known_model, write_csv
 
 
+@pytest.mark.slow
 def test_identify_solver_choice_gives_the_same_model(tmp_path):
     truth = known_model(5, v_min=0.0, v_max=3.0)
     v = damped_oscillation(truth.grid, thermal_term=True)
@@ -17,17 +18,18 @@ def test_identify_solver_choice_gives_the_same_model(tmp_path):
     path = write_csv(tmp_path / "d.csv", v, y)
     out = {}
     for solver in ("fast", "dense"):
-        run = rig("identify", path, "-L", 5, "--method", "cs_order_nn", "--measurements", 12,
+        run = rig_here("identify", path, "-L", 5, "--method", "cs_order_nn", "--measurements", 12,
                   "--solver", solver, "--json")
         assert run.code == 0, run.err
         out[solver] = run.json()
         assert out[solver]["settings"]["solver"] == solver
     np.testing.assert_allclose(out["fast"]["density"], out["dense"]["density"], atol=1e-6)
-    assert_one_line_error(rig("identify", path, "-L", 5, "--solver", "magic"), "solver")
+    assert_one_line_error(rig_here("identify", path, "-L", 5, "--solver", "magic"), "solver")
 
 
+@pytest.mark.slow
 def test_bench_json_contract_covers_every_method_for_the_damped_oscillation():
-    run = rig("bench", "--case", "3:5", "--dense-up-to", "0", "--repeats", "1", "--json", timeout=300)
+    run = rig_here("bench", "--case", "3:5", "--dense-up-to", "0", "--repeats", "1", "--json")
     assert run.code == 0, run.err
     cases = run.json()["cases"]
     assert [c["method"] for c in cases] == list(DAMPED_METHODS)
@@ -39,13 +41,14 @@ def test_bench_json_contract_covers_every_method_for_the_damped_oscillation():
         assert c["dense_s"] is None and c["ratio"] is None and c["rmse_rel_diff"] is None
 
 
+@pytest.mark.slow
 def test_bench_against_the_dense_reference_and_bad_cases():
-    run = rig("bench", "--case", "4:8", "--method", "cs_order", "--repeats", "2", "--json", timeout=300)
+    run = rig_here("bench", "--case", "4:8", "--method", "cs_order", "--repeats", "2", "--json")
     assert run.code == 0, run.err
     (case,) = run.json()["cases"]
     assert case["runs"] == 2 and case["dense_status"] == "ok"
     assert case["ratio"] == pytest.approx(case["dense_s"] / case["fast_s"])
     assert 0 <= case["rmse_rel_diff"] < 1e-6  # a unique l1 optimum, reached by both
     assert case["fast_rmse_um"] == pytest.approx(case["dense_rmse_um"], rel=1e-6)
-    assert_one_line_error(rig("bench", "--case", "30:9999"), "M <= N+1")
-    assert_one_line_error(rig("bench", "--case", "thirty"), "L:M")
+    assert_one_line_error(rig_here("bench", "--case", "30:9999"), "M <= N+1")
+    assert_one_line_error(rig_here("bench", "--case", "thirty"), "L:M")

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import pytest
+
 import hashlib
 
 from sessions import read_session
 
-from .cli import assert_one_line_error, rig
+from .cli import assert_one_line_error, rig, rig_here
 
 METHODS = ["ls", "cs", "cs_order", "cs_order_nn", "smooth_nn"]
 
@@ -15,6 +17,7 @@ def _digest(path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+@pytest.mark.slow
 def test_demo_acquires_identifies_diagnoses_and_reports(tmp_path):
     out = tmp_path / "demo"
     run = rig("demo", "--levels", 8, "--measurements", 30, "--strength", 0.1, "--out", out, "--json")
@@ -49,13 +52,35 @@ def test_demo_acquires_identifies_diagnoses_and_reports(tmp_path):
             assert p.split("/")[-1] in summary
 
 
+@pytest.mark.slow
 def test_demo_never_overwrites_an_earlier_run(tmp_path):
     out = tmp_path / "demo"
-    assert rig("demo", "--levels", 4, "--measurements", 10, "--effect", "none", "--out", out).code == 0
+    assert rig_here("demo", "--levels", 4, "--measurements", 10, "--effect", "none", "--out", out).code == 0
     before = {p.name: _digest(p) for p in out.glob("*.h5")}
-    assert_one_line_error(rig("demo", "--levels", 4, "--out", out), "already holds fit.h5", "never overwritten")
+    assert_one_line_error(rig_here("demo", "--levels", 4, "--out", out), "already holds fit.h5", "never overwritten")
     assert {p.name: _digest(p) for p in out.glob("*.h5")} == before
-    assert_one_line_error(rig("demo", "--levels", 4, "--measurements", 500, "--out", tmp_path / "d2"),
+    assert_one_line_error(rig_here("demo", "--levels", 4, "--measurements", 500, "--out", tmp_path / "d2"),
                           "--measurements 500", "between 1 and the 12 points")
     assert not (tmp_path / "d2").exists()
-    assert_one_line_error(rig("demo", "--effect", "gremlins"), "gremlins")
+    assert_one_line_error(rig_here("demo", "--effect", "gremlins"), "gremlins")
+
+
+@pytest.mark.slow
+def test_a_strength_the_device_cannot_take_is_bad_input_and_leaves_out_usable(tmp_path):
+    # issue 17, finding 6: NaN was an internal error (exit 1); 1e6 left a failed session behind
+    # that made every later demo refuse the same --out
+    for bad in ("nan", "inf", "-1"):
+        assert_one_line_error(rig_here("demo", "--strength", bad, "--out", tmp_path / "n"), "--strength")
+    assert not (tmp_path / "n").exists()
+    out = tmp_path / "demo"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    assert_one_line_error(rig_here("demo", "--levels", 4, "-M", 10, "--strength", "1e6", "--out", out),
+                          "--strength 1e+06", "PSD is saturated", "nothing was kept", "smaller --strength")
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]
+    assert_one_line_error(rig_here("demo", "--levels", 4, "-M", 10, "--strength", "1e6", "--out", tmp_path / "new"),
+                          "nothing was kept")
+    assert not (tmp_path / "new").exists()  # a directory the failed demo created goes with it
+    run = rig_here("demo", "--levels", 4, "--measurements", 10, "--out", out, "--json")
+    assert run.code == 0, run.err
+    assert read_session(out / "fit.h5").status.value == "complete"

@@ -14,7 +14,7 @@ from rig.diagnosis.demo import diagnose_simulated
 from rig.diagnosis.simulate import SimulatedBench, simulate
 from sessions import Trace, read_session, write_trace
 
-from .cli import assert_one_line_error, rig, rig_here
+from .cli import assert_one_line_error, rig_here
 
 #: Small and quick: L = 8 (38 identification points), 100 check points.
 SMALL = dict(levels=8, check_points=100)
@@ -26,6 +26,7 @@ def creep_runs(tmp_path_factory):
     return simulate(SimulatedBench("creep", 0.1, seed=1, **SMALL), d)
 
 
+@pytest.mark.slow
 def test_json_follows_the_contract_and_names_the_effect(creep_runs, tmp_path):
     fit, check = creep_runs
     run = rig_here("diagnose", "--fit", fit, "--check", check, "--json", "--out", tmp_path / "figs")
@@ -93,7 +94,7 @@ def test_bad_input_is_one_line_and_exit_2(creep_runs, tmp_path):
     fit, check = creep_runs
     junk = tmp_path / "junk.h5"
     junk.write_bytes(b"not a session")
-    assert_one_line_error(rig("diagnose", "--fit", fit, "--check", junk), "junk.h5", "not an HDF5 file")
+    assert_one_line_error(rig_here("diagnose", "--fit", fit, "--check", junk), "junk.h5", "not an HDF5 file")
     assert_one_line_error(rig_here("diagnose", "--fit", fit, "--check", fit), "also an identification run")
     assert_one_line_error(rig_here("diagnose", "--fit", fit, "--check", check, "--effects", "gremlins"),
                           "unknown effect")

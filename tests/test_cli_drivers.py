@@ -2,44 +2,21 @@
 
 from __future__ import annotations
 
-import json
-import os
-import shutil
-import signal
 import socket
-import subprocess
 import sys
 
 import pytest
 
 from .benchsim import HEADER, REGISTER_MAP
-from .cli import assert_one_line_error, rig
+from .cli import assert_one_line_error, rig_here, serve_sim, stop
 
 pytestmark = pytest.mark.timeout(120)
 
 SELFTEST_KEYS = {"driver", "connected", "heater_ok", "sensor_ok", "deflection_um", "safe_state"}
 
 
-def serve_sim(*args):
-    exe = shutil.which("rig", path=os.path.dirname(sys.executable)) or "rig"
-    proc = subprocess.Popen(
-        [exe, "serve-sim", *args, "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )
-    line = proc.stdout.readline()
-    if not line:
-        proc.wait(10)
-        raise AssertionError(proc.stderr.read())
-    return proc, json.loads(line)
-
-
-def stop(proc):
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=20)
-    return proc.returncode, err
-
-
 def test_selftest_on_the_built_in_simulated_device():
-    run = rig("selftest", "--json")
+    run = rig_here("selftest", "--json")
     assert run.code == 0, run.err
     report = run.json()
     assert SELFTEST_KEYS <= set(report)
@@ -49,6 +26,7 @@ def test_selftest_on_the_built_in_simulated_device():
     assert report["readback_V"] == report["test_voltage_V"] == 0.5
 
 
+@pytest.mark.slow
 def test_selftest_passes_against_serve_sim_and_fails_cleanly_once_it_is_gone(tmp_path):
     serial_at = "pty" if sys.platform.startswith("linux") else "socket://127.0.0.1:0"
     proc, endpoints = serve_sim("--modbus", "127.0.0.1:0", "--serial", serial_at)
@@ -61,14 +39,14 @@ def test_selftest_passes_against_serve_sim_and_fails_cleanly_once_it_is_gone(tmp
         serial = tmp_path / "serial.toml"
         serial.write_text(HEADER.format(driver="serial") + f"[serial]\nurl = \"{endpoints['serial']}\"\n")
 
-        run = rig("selftest", "--config", modbus, "--json")
+        run = rig_here("selftest", "--config", modbus, "--json")
         assert run.code == 0, run.err
         report = run.json()
         assert SELFTEST_KEYS <= set(report)
         assert report["driver"] == "modbus" and report["passed"] and report["endpoint"].startswith("modbus tcp")
         assert report["readback_V"] == 0.5 and report["deflection_um"] == pytest.approx(-13.0, abs=0.05)
 
-        run = rig("selftest", "--config", serial)  # over a pseudo-terminal, as over a real serial port
+        run = rig_here("selftest", "--config", serial)  # over a pseudo-terminal, as over a real serial port
         assert run.code == 0, run.err
         assert "PASSED" in run.out and endpoints["serial"] in run.out
     finally:
@@ -77,7 +55,7 @@ def test_selftest_passes_against_serve_sim_and_fails_cleanly_once_it_is_gone(tmp
     # Per self-test: 0 V on opening, 0.5 V, 0 V, 0 V on closing -- all accepted, heater left at 0 V.
     assert "8 set-point request(s) received, 0 refused; heater at 0 V" in err
 
-    run = rig("selftest", "--config", modbus, "--json")
+    run = rig_here("selftest", "--config", modbus, "--json")
     assert run.code == 1
     report = run.json()
     assert SELFTEST_KEYS <= set(report)
@@ -89,10 +67,38 @@ def test_selftest_passes_against_serve_sim_and_fails_cleanly_once_it_is_gone(tmp
 def test_bad_invocations_are_one_line_errors(tmp_path):
     bad = tmp_path / "rig.toml"
     bad.write_text(HEADER.format(driver="modbus").replace("max_V", "max_v"))
-    assert_one_line_error(rig("selftest", "--config", bad), "unknown key 'heater.max_v'", "did you mean 'heater.max_V'")
-    assert_one_line_error(rig("serve-sim", "--modbus", "0.0.0.0:0"), "not a loopback address", "--allow-remote")
+    assert_one_line_error(rig_here("selftest", "--config", bad), "unknown key 'heater.max_v'", "did you mean 'heater.max_V'")
+    assert_one_line_error(rig_here("serve-sim", "--modbus", "0.0.0.0:0"), "not a loopback address", "--allow-remote")
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen(1)
         port = busy.getsockname()[1]
-        assert_one_line_error(rig("serve-sim", "--modbus", f"127.0.0.1:{port}", timeout=30), "cannot serve modbus")
+        assert_one_line_error(rig_here("serve-sim", "--modbus", f"127.0.0.1:{port}"),
+                              f"--modbus 127.0.0.1:{port}: the address is already in use", "port 0")
+
+
+@pytest.mark.slow
+def test_an_address_in_use_is_named_with_the_port_0_way_out(tmp_path):
+    # issue 17, finding 7: pymodbus said "Could not start listen, please check address"
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen(1)
+        port = busy.getsockname()[1]
+        for option, value in (("--modbus", f"127.0.0.1:{port}"), ("--modbus-rtu", f"127.0.0.1:{port}"),
+                              ("--serial", f"socket://127.0.0.1:{port}")):
+            run = rig_here("serve-sim", option, value)
+            assert_one_line_error(run, f"{option} {value}: the address is already in use", f"{option} ",
+                                  ":0", "prints the port it chose")
+            assert "check address" not in run.err
+        config = tmp_path / "rig.toml"
+        config.write_text(HEADER.format(driver="modbus") + f"[modbus]\nport = {port}\n" + REGISTER_MAP)
+        assert_one_line_error(rig_here("serve-sim", "--config", config), "already in use", "--modbus 127.0.0.1:0")
+    # port 0: the system's choice, printed
+    proc, endpoints = serve_sim("--modbus", "127.0.0.1:0")
+    try:
+        host, chosen = endpoints["modbus"].rsplit(":", 1)
+        assert host == "127.0.0.1" and int(chosen) > 0
+        with socket.create_connection(("127.0.0.1", int(chosen))):
+            pass
+    finally:
+        assert stop(proc)[0] == 0

@@ -21,7 +21,7 @@ def damped_csv(tmp_path):
 def test_identify_json_contract_and_exact_recovery(damped_csv, tmp_path):
     truth, path = damped_csv
     before = digest(path)
-    run = rig("identify", path, "--levels", 6, "--method", "cs_order_nn", "--json")
+    run = rig_here("identify", path, "--levels", 6, "--method", "cs_order_nn", "--json")
     assert run.code == 0, run.err
     out = run.json()
     for key in ("method", "levels", "walls", "mu0", "c_d", "density", "rmse_um", "n_measured"):
@@ -37,6 +37,7 @@ def test_identify_json_contract_and_exact_recovery(damped_csv, tmp_path):
     assert digest(path) == before
 
 
+@pytest.mark.slow
 def test_identify_then_predict_round_trip(damped_csv, tmp_path):
     truth, path = damped_csv
     model_file = tmp_path / "model.json"
@@ -54,8 +55,8 @@ def test_identify_then_predict_round_trip(damped_csv, tmp_path):
         p = rig("predict", m, check, "--json")
         assert p.code == 0, p.err
         res = p.json()
-        assert set(res) == {"prediction_um", "rmse_um", "max_abs_um"}
-        assert len(res["prediction_um"]) == 50
+        assert {"prediction_um", "rmse_um", "max_abs_um"} <= set(res)  # the contract; README lists the rest
+        assert len(res["prediction_um"]) == 50 and res["n_points"] == res["n_measured"] == 50
         err = np.array(res["prediction_um"]) - truth.predict(v)
         assert res["rmse_um"] == pytest.approx(np.sqrt(np.mean(err**2)), rel=1e-9)
         assert res["max_abs_um"] == pytest.approx(np.abs(err).max(), rel=1e-9)
@@ -63,7 +64,7 @@ def test_identify_then_predict_round_trip(damped_csv, tmp_path):
 
 def test_human_readable_output(damped_csv):
     _, path = damped_csv
-    run = rig("identify", path, "-L", 6)
+    run = rig_here("identify", path, "-L", 6)
     assert run.code == 0 and "rmse_um" in run.out and "ls on L=6" in run.out
 
 
@@ -71,7 +72,7 @@ def test_no_thermal_term(tmp_path):
     truth = known_model(5, c_d=0.0)
     v = damped_oscillation(truth.grid)
     path = write_csv(tmp_path / "d.csv", v, truth.predict(v))
-    out = rig("identify", path, "-L", 5, "--no-thermal-term", "--method", "cs", "--json").json()
+    out = rig_here("identify", path, "-L", 5, "--no-thermal-term", "--method", "cs", "--json").json()
     assert out["c_d"] == 0.0 and out["thermal_term"] is False
     assert out["mu0"] == pytest.approx(truth.mu0, rel=1e-6)
 
@@ -94,18 +95,18 @@ def test_bad_csv_is_one_line_exit_2_and_untouched(tmp_path, case):
     path = tmp_path / f"{case}.csv"
     path.write_text(text)
     before = digest(path)
-    assert_one_line_error(rig("identify", path, "--levels", 3), fragment)
+    assert_one_line_error(rig_here("identify", path, "--levels", 3), fragment)
     assert digest(path) == before
 
 
 def test_bad_arguments(damped_csv, tmp_path):
     _, path = damped_csv
     before = digest(path)
-    assert_one_line_error(rig("identify", path, "--levels", 0), "levels")
+    assert_one_line_error(rig_here("identify", path, "--levels", 0), "levels")
     assert_one_line_error(rig_here("identify", path), "--levels")
     assert_one_line_error(rig_here("identify", path, "-L", 6, "--measurements", 24), "between 1 and N=23")
     assert_one_line_error(rig_here("identify", path, "-L", 6, "--measurements", 0), "between 1 and N")
-    assert_one_line_error(rig("identify", path, "-L", 6, "--method", "nope"), "nope")
+    assert_one_line_error(rig_here("identify", path, "-L", 6, "--method", "nope"), "nope")
     assert_one_line_error(rig_here("identify", tmp_path / "missing.csv", "-L", 3), "no such file")
     # right length but a different grid: inputs not on its walls
     assert_one_line_error(rig_here("identify", path, "-L", 6, "--v-max", 3.3, "--method", "cs"), "not on a wall")
@@ -118,7 +119,7 @@ def test_predict_bad_model(tmp_path, damped_csv):
     _, path = damped_csv
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
-    assert_one_line_error(rig("predict", bad, path, "--json"), "not a JSON model")
+    assert_one_line_error(rig_here("predict", bad, path, "--json"), "not a JSON model")
     bad.write_text(json.dumps({"walls": [0, 1], "mu0": 0}))
     assert_one_line_error(rig_here("predict", bad, path, "--json"), "missing")
     assert_one_line_error(rig_here("predict", tmp_path / "none.json", path), "no such file")

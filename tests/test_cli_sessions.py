@@ -7,7 +7,7 @@ from identify import Excitation, damped_oscillation
 from identify.fit import fit_sequence
 from sessions import ExcitationRecord, Quantities, SampleFlag, SessionWriter, read_session
 
-from .cli import assert_one_line_error, rig, rig_here
+from .cli import assert_one_line_error, rig_here
 from .conftest import digest, known_model, write_csv
 from .test_session_files import CASES, damaged, good  # noqa: F401  (good is a fixture)
 
@@ -23,7 +23,7 @@ def damped(tmp_path):
 def test_import_export_round_trip(damped, tmp_path):
     truth, csv = damped
     out, back = tmp_path / "s.h5", tmp_path / "back.csv"
-    run = rig("import", csv, "--out", out, "--levels", 6, "--operator", "ada", "--json")
+    run = rig_here("import", csv, "--out", out, "--levels", 6, "--operator", "ada", "--json")
     assert run.code == 0, run.err
     assert run.json() == {"session": str(out), "n_samples": 23, "excitation": "damped", "levels": 6,
                           "v_min": 0.0, "v_max": 3.0, "thermal_term": True, "status": "complete",
@@ -36,7 +36,7 @@ def test_import_export_round_trip(damped, tmp_path):
     assert np.all(s.samples["flags"] == SampleFlag.IMPORTED) and np.all(s.measured)
     assert s.excitation.extra["source"] == "damped.csv"
     assert s.excitation.extra["source_sha256"] == digest(csv) and s.operator == "ada"
-    run = rig("export", out, "--csv", back)
+    run = rig_here("export", out, "--csv", back)
     assert run.code == 0, run.err
     assert back.read_bytes() == csv.read_bytes()
     # neither command replaces an existing file without --force
@@ -171,5 +171,5 @@ def test_cli_reports_damaged_sessions_in_one_line(good, tmp_path, case, command)
     path = damaged(good, tmp_path, change)
     before = digest(path)
     args = ["identify", path, "--json"] if command == "identify" else ["export", path, "--csv", tmp_path / "o.csv"]
-    assert_one_line_error(rig(*args), message)
+    assert_one_line_error(rig_here(*args), message)
     assert digest(path) == before and not (tmp_path / "o.csv").exists()

@@ -2,7 +2,7 @@
 
 import pytest
 
-from .cli import assert_one_line_error, rig
+from .cli import assert_one_line_error, rig_here
 
 SMALL = ("--levels", 8, "--measurements", 20, "--runs", 3, "--validation-points", 30)
 METHOD_KEYS = {"model_rmse", "model_max", "density_rmse", "seconds", "validation_rmse", "failures"}
@@ -14,8 +14,8 @@ def _without_times(methods):
 
 @pytest.fixture(scope="module")
 def two_worker_run():
-    run = rig("study", "--profile", "gaussian", *SMALL, "--method", "ls", "--method", "cs_order_nn",
-              "--method", "smooth_nn", "--workers", 2, "--json", timeout=300)
+    run = rig_here("study", "--profile", "gaussian", *SMALL, "--method", "ls", "--method", "cs_order_nn",
+              "--method", "smooth_nn", "--workers", 2, "--json")
     assert run.code == 0, run.err
     return run.json()
 
@@ -35,18 +35,20 @@ def test_json_schema(two_worker_run):
     assert all(f["verdict"] in ("agrees", "disagrees", "inconclusive", "met", "missed") for f in out["findings"])
 
 
+@pytest.mark.slow
 def test_results_do_not_depend_on_the_number_of_workers(two_worker_run):
-    run = rig("study", "--profile", "gaussian", *SMALL, "--method", "ls", "--method", "cs_order_nn",
-              "--method", "smooth_nn", "--workers", 1, "--json", timeout=300)
+    run = rig_here("study", "--profile", "gaussian", *SMALL, "--method", "ls", "--method", "cs_order_nn",
+              "--method", "smooth_nn", "--workers", 1, "--json")
     assert run.code == 0, run.err
     assert _without_times(run.json()["methods"]) == _without_times(two_worker_run["methods"])
 
 
+@pytest.mark.slow
 def test_table_sweeps_and_figures(tmp_path):
     plots = tmp_path / "figs"
-    run = rig("study", "--profile", "random", *SMALL, "--method", "ls", "--method", "cs",
+    run = rig_here("study", "--profile", "random", *SMALL, "--method", "ls", "--method", "cs",
               "--method", "smooth_nn", "--sweep-measurements", "10,30", "--sweep-noise", "0,20",
-              "--plots", plots, timeout=300)
+              "--plots", plots)
     assert run.code == 0, run.err
     text = run.out
     assert "paper_matlab_s" in text and "1.18" in text  # the paper's LS run time beside ours
@@ -72,12 +74,12 @@ def test_table_sweeps_and_figures(tmp_path):
     (("--workers", 0), "workers"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, fragment):
-    assert_one_line_error(rig("study", *args), fragment)
+    assert_one_line_error(rig_here("study", *args), fragment)
 
 
 def test_unwritable_plot_directory(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
-    run = rig("study", "-L", 3, "-M", 5, "--runs", 1, "--method", "ls", "--workers", 1,
+    run = rig_here("study", "-L", 3, "-M", 5, "--runs", 1, "--method", "ls", "--workers", 1,
               "--plots", blocker / "sub")
     assert_one_line_error(run, "cannot write the figures")

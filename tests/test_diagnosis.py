@@ -105,11 +105,17 @@ def test_identification_terms_take_part_in_the_fit_but_are_never_scored():
 
 def test_block_bootstrap_is_paired_and_stratified():
     blocks = make_blocks([50, 30])
-    assert blocks.run.tolist() == [0] * 10 + [1] * 6
-    sse = np.vstack([blocks.size * 1.0, blocks.size * 4.0])
-    boot = bootstrap_mse(sse, blocks, n_boot=200, seed=3)
-    np.testing.assert_allclose(boot[:, 0], 1.0)
-    np.testing.assert_allclose(boot[:, 1], 4.0)
+    assert blocks.run.tolist() == [0] * 10 + [1] * 6 and blocks.size.tolist() == [5] * 16
+    base = np.random.default_rng(0).uniform(0.5, 5.0, blocks.count) * blocks.size  # every block's error differs
+    in_run_0 = (blocks.run == 0) * blocks.size * 1.0  # one per point on run 0, nothing on run 1
+    boot = bootstrap_mse(np.vstack([base, 2 * base, in_run_0]), blocks, n_boot=200, seed=3)
+    # the resamples differ from one another, around the whole sample's mean squared error ...
+    assert np.std(boot[:, 0]) > 0.05 * np.mean(boot[:, 0])
+    assert np.mean(boot[:, 0]) == pytest.approx(base.sum() / 80, rel=0.1)
+    # ... paired: every model is scored on the same resampled blocks (independent draws break the ratio) ...
+    np.testing.assert_allclose(boot[:, 1], 2 * boot[:, 0], rtol=1e-12)
+    # ... and stratified: each resample draws 10 blocks from run 0 and 6 from run 1 (pooled draws would not)
+    np.testing.assert_allclose(boot[:, 2], 50 / 80, rtol=1e-12)
 
 
 # ---------------------------------------------------------------- noise
@@ -211,6 +217,7 @@ def test_a_drift_of_the_check_run_is_found_and_how_far_it_goes():
     assert d.verdict_without(["baseline_drift"]).status in ("unexplained", "ambiguous")
 
 
+@pytest.mark.slow
 def test_no_effect_is_no_gap_and_bad_check_points_are_reported_not_fatal():
     fit, check = synthetic(GRID, seed=3)
     d = diagnose([fit], [check], GRID)
@@ -236,6 +243,7 @@ def test_no_effect_is_no_gap_and_bad_check_points_are_reported_not_fatal():
         diagnose([fit], [], GRID)
 
 
+@pytest.mark.slow
 def test_thermal_lag_cannot_be_seen_when_every_dwell_is_long():
     fit, check = synthetic(GRID, seed=5)
 

@@ -94,6 +94,7 @@ def test_the_instrument_refusing_a_value_is_a_named_device_error():
         assert [r.volts for r in bench.journal.setpoints if not r.accepted] == [11.0]
 
 
+@pytest.mark.slow
 def test_garbage_and_silence_are_retried_then_reported():
     with served(serial="socket://127.0.0.1:0", **EXACT) as bench:
         with open_rig(config(serial_toml(bench.endpoints["serial"], timeout=0.2, retries=2))) as rig:

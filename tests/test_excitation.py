@@ -35,6 +35,7 @@ def test_small_case_by_hand():
     np.testing.assert_array_equal(regressor_matrix(g, damped_oscillation(g), False), [[1, 1], [-1, 1]])
 
 
+@pytest.mark.slow
 def test_invertible_for_every_level_up_to_60():
     for levels in range(1, 61):
         g = Grid(levels, 0.0, 5.0)

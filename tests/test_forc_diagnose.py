@@ -3,9 +3,6 @@ apply, and the drift monitor."""
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -18,7 +15,7 @@ from sessions import read_session
 
 from .cli import assert_one_line_error, rig_here
 from .conftest import write_csv
-from .forcfiles import Relays, forc_data, lines_0016, write_lines
+from .forcfiles import Relays, forc_data, lines_0016, shared_forc, write_lines
 from .test_forc_identify import GRID, REVERSALS, protocol, truth_model
 
 HEATER_EFFECTS = {"thermal_lag", "ambient_drift", "joule_power"}
@@ -82,6 +79,7 @@ def _forc_runs(t_s=None):
     return runs
 
 
+@pytest.mark.slow
 def test_effects_that_cannot_act_on_forc_data_are_not_applicable():
     fit, check = _forc_runs()
     d = diagnose([fit], [check], GRID)
@@ -110,6 +108,7 @@ def forc_session(tmp_path):
     return out
 
 
+@pytest.mark.slow
 def test_rig_diagnose_splits_a_forc_session_into_even_and_odd_curves(forc_session, tmp_path):
     run = rig_here("diagnose", "--fit", forc_session, "--check", forc_session, "--fit-curves", "even",
                    "--check-curves", "odd", "--levels", 8, "--json", "--out", tmp_path / "fig")
@@ -156,13 +155,10 @@ def test_rig_diagnose_refusals_on_forc_sessions(forc_session, tmp_path):
     assert forc_session.read_bytes() == before
 
 
-SHARED = Path(os.environ.get("VO2RIG_FORC_FILE", "/work/shared/data/forc/MD00-2361.forc"))
-
-
-@pytest.mark.skipif(not SHARED.is_file(), reason="the shared FORC measurement is not on this machine")
+@pytest.mark.slow
 def test_rig_diagnose_on_the_shared_measurement(tmp_path):
     session = tmp_path / "md.h5"
-    assert rig_here("import", "--format", "micromag", SHARED, "--out", session).code == 0
+    assert rig_here("import", "--format", "micromag", shared_forc(), "--out", session).code == 0
     run = rig_here("diagnose", "--fit", session, "--check", session, "--fit-curves", "even", "--check-curves",
                    "odd", "--levels", 12, "--stride", 100, "--json")
     assert run.code == 0, run.err

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -14,9 +11,7 @@ from sessions.forc_import import import_forc
 from sessions.forc_protocol import SweepSettings, protocol_history
 from sessions.micromag import read_forc, read_micromag
 
-from .forcfiles import Relays, forc_data, lines_0015, lines_0016, write_lines
-
-SHARED = Path(os.environ.get("VO2RIG_FORC_FILE", "/work/shared/data/forc/MD00-2361.forc"))
+from .forcfiles import Relays, forc_data, lines_0015, lines_0016, shared_forc, write_lines
 
 #: Reversal fields of the test measurement (T), highest first, as a FORC script runs them.
 REVERSALS = np.round(np.arange(0.02, -0.0801, -0.01), 9)
@@ -221,11 +216,10 @@ def test_malformed_series_0015_files(tmp_path, data):
 
 
 # ------------------------------------------------------------------ the shared measurement
-@pytest.mark.skipif(not SHARED.is_file(), reason="the shared FORC measurement is not on this machine")
 def test_the_shared_measurement(tmp_path):
     """MD00-2361.forc (Series 0016): 297 curves after 297 calibration points; curve 0 is its reversal
     point alone, curves 1..228 end at the Hb bound (2k + 1 points), the rest span 458 points."""
-    forc = read_forc(SHARED)
+    forc = read_forc(shared_forc())
     lengths = np.array([len(c) for c in forc.curves])
     assert (len(forc.calibration), len(forc.curves), forc.n_points) == (297, 297, 83585)
     np.testing.assert_array_equal(lengths[:229], 2 * np.arange(229) + 1)

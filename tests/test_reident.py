@@ -4,6 +4,7 @@ import importlib
 import json
 import os
 import shutil
+import time
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from rig.parallel import run_parallel
 from rig.reidentify import IdentifyOptions, default_model_name, fit_job, plan_jobs
 from sessions import Quantities, read_session
 
-from .cli import assert_one_line_error, rig, rig_here
+from .cli import assert_one_line_error, rig_here
 from .conftest import digest, known_model
 from .sessionkit import write_run
 
@@ -78,6 +79,7 @@ def test_identify_stores_the_model_by_default_and_it_round_trips(tmp_path):
     assert events == ["stored model ls (ls)", "replaced model ls (ls)"]
 
 
+@pytest.mark.slow
 def test_batch_in_parallel_gives_the_results_of_one_at_a_time(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     a.mkdir()
@@ -85,7 +87,7 @@ def test_batch_in_parallel_gives_the_results_of_one_at_a_time(tmp_path):
         damped_run(a / f"run{k}.h5", seed=k, noise=0.01 * (k + 1))
     shutil.copytree(a, b)
     options = ["--method", "ls", "-M", 18, "--seed", 2]
-    batch = rig("identify", *[a / f"run{k}.h5" for k in range(3)], *options, "-j", 2, "--json",
+    batch = rig_here("identify", *[a / f"run{k}.h5" for k in range(3)], *options, "-j", 2, "--json",
                 "--save", tmp_path / "models")
     assert batch.code == 0, batch.err
     out = batch.json()
@@ -181,9 +183,11 @@ def test_a_session_being_recorded(tmp_path):
 def job_pid(x):
     if x == "fail":
         raise IdentifyError("job says no")
+    time.sleep(0.25)  # long enough that a worker started late still gets jobs (instant jobs: one took all 8)
     return x, os.getpid()
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(180)
 def test_run_parallel_spreads_jobs_over_processes_in_order(tmp_path):
     # after this process has run the l1 solver on a problem big enough for its factorisation to

@@ -12,7 +12,7 @@ from rig.session_input import choose_model, open_run
 from rig.session_report import ScoredRun, build_report
 from sessions import Quantities
 
-from .cli import assert_one_line_error, rig, rig_here
+from .cli import assert_one_line_error, rig_here
 from .conftest import digest, known_model
 from .sessionkit import write_run
 from .test_plots import png_size
@@ -41,11 +41,12 @@ def built(session, validation=None):
     return build_report(ScoredRun(data, score_model(record, data, fitted_on=True)), record, checked)
 
 
+@pytest.mark.slow
 def test_report_writes_the_figures_and_a_summary_linking_them(fitted, tmp_path):
     s, v = fitted
     before = digest(s), digest(v)
     out = tmp_path / "rep"
-    run = rig("report", s, "--validate", v, "--out", out, "--json")
+    run = rig_here("report", s, "--validate", v, "--out", out, "--json")
     assert run.code == 0, run.err
     result = run.json()
     assert result["model"] == "cs_order_nn" and result["summary"] == str(out / "report.md")
@@ -101,6 +102,7 @@ def test_figures_carry_the_session_quantities(tmp_path):
     assert np.all(np.isfinite(heating.get_ydata()))
 
 
+@pytest.mark.slow
 def test_every_text_fits_in_its_figure(tmp_path):
     """Long names (session, model) are not clipped: titles, labels and notes lie inside the figure."""
     truth = known_model(6, v_min=0.0, v_max=3.0)

@@ -74,6 +74,7 @@ def test_sigkill_mid_run_keeps_every_reported_sample_and_resumes(tmp_path, after
     assert [e.event for e in done.events] == ["created", "reopened", "aborted"]
 
 
+@pytest.mark.slow
 def test_second_process_reads_while_the_writer_appends(tmp_path):
     path = tmp_path / "live.h5"
     child = start_child("write", path, 60, 0.01, "hold")

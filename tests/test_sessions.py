@@ -1,5 +1,7 @@
 """Session files: what the writer stores, what the reader gives back, models, locking."""
 
+import os
+
 import h5py
 import numpy as np
 import pytest
@@ -259,8 +261,30 @@ def test_log_text_is_cut_on_character_boundaries():
     assert fixed_text("short", 16) == b"short"
 
 
-def test_fsync_every_sample(tmp_path):
-    path = write_session(tmp_path / "s.h5", fsync_interval_s=0)
+@pytest.mark.parametrize("interval, every_sample", [(0, True), (3600, False), (None, False)])
+def test_fsync_every_sample_periodically_or_only_on_close(tmp_path, monkeypatch, interval, every_sample):
+    """``fsync_interval_s=0`` syncs the session file inside every append; a long interval or ``None``
+    only when the writer closes. Counted on the session file itself (by inode), so the test fails if
+    syncing is switched off or goes to another file."""
+    path = tmp_path / "s.h5"
+    synced: list[tuple[str, int]] = []  # (what the writer was doing, inode synced)
+    phase = ["create"]
+    real_fsync = os.fsync
+
+    def counting_fsync(fd):
+        synced.append((phase[0], os.fstat(fd).st_ino))
+        real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", counting_fsync)
+    with SessionWriter.create(path, excitation(12), fsync_interval_s=interval) as w:
+        for k in range(12):
+            phase[0] = f"append {k}"
+            append_point(w, k)
+        phase[0] = "close"
+    inode = path.stat().st_ino
+    appends = [what for what, ino in synced if what.startswith("append") and ino == inode]
+    assert appends == ([f"append {k}" for k in range(12)] if every_sample else [])
+    assert ("close", inode) in synced  # always on close
     assert read_session(path).n_samples == 12
 
 

@@ -21,7 +21,7 @@ from identify.methods.triangle_penalty import (
 )
 from identify.profiles import gaussian
 
-from .cli import rig
+from .cli import rig_here
 from .conftest import known_model, write_csv
 
 
@@ -202,6 +202,7 @@ def test_beats_least_squares_on_a_smooth_density_from_few_rows():
     assert errors["smooth_nn"] < 0.5 * errors["ls"]
 
 
+@pytest.mark.slow
 def test_iterative_solver_agrees_with_the_normal_equations():
     _, problem = _problem(levels=8, n=70, m=50, noise=0.2, seed=4)
     normal = make_method("smooth_nn", weight=0.05, algorithm="normal").fit(problem)
@@ -307,7 +308,7 @@ def test_rig_identify_knows_smooth_nn(tmp_path):
     truth = known_model(6, v_min=0.0, v_max=3.0)
     v = random_input(truth.grid, 80, seed=2)
     path = write_csv(tmp_path / "trace.csv", v, truth.predict(v))
-    run = rig("identify", path, "-L", 6, "--v-min", 0, "--v-max", 3, "--method", "smooth_nn",
+    run = rig_here("identify", path, "-L", 6, "--v-min", 0, "--v-max", 3, "--method", "smooth_nn",
               "--measurements", 60, "--json")
     assert run.code == 0, run.err
     out = run.json()

@@ -302,6 +302,7 @@ class Served:
         self.close()
 
 
+@pytest.mark.slow
 def test_the_page_its_state_and_figures_and_nothing_that_acts(tmp_path):
     path, _ = write_run(tmp_path / "s.h5", known_model(5, 0, 6), Excitation.random(Grid(5, 0, 6), 30, seed=2))
     before = digest(path)

@@ -29,7 +29,6 @@ import warnings
 from functools import cached_property
 
 import numpy as np
-import scipy.fft
 import scipy.linalg
 import scipy.linalg.blas
 
@@ -51,17 +50,20 @@ class PartialDCT:
     """``Phi = A Psi^{-1}``: rows ``positions`` of the ``n``-point orthonormal inverse DCT."""
 
     def __init__(self, n: int, positions: np.ndarray) -> None:
+        import scipy.fft  # here, not at import: the command's start-up need not pay for it
+
         self.n = int(n)
         self.positions = np.asarray(positions, dtype=np.int64)
+        self._dct, self._idct = scipy.fft.dct, scipy.fft.idct
 
     def __matmul__(self, q: np.ndarray) -> np.ndarray:
-        return scipy.fft.idct(q, type=2, norm="ortho")[self.positions]
+        return self._idct(q, type=2, norm="ortho")[self.positions]
 
     def adjoint(self, r: np.ndarray) -> np.ndarray:
         """``Phi^T r``, length ``n``."""
         full = np.zeros(self.n)
         full[self.positions] = r
-        return scipy.fft.dct(full, type=2, norm="ortho")
+        return self._dct(full, type=2, norm="ortho")
 
     def columns(self, cols: np.ndarray) -> np.ndarray:
         """Columns ``cols`` of ``Phi``, dense ``(M, len(cols))``, from the closed form.

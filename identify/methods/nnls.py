@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 
 from ..operators import RegressorOperator
 from .lawson_hanson import lawson_hanson
@@ -72,6 +71,8 @@ def nnls_free(a: np.ndarray, y: np.ndarray, n_nonneg: int) -> tuple[np.ndarray, 
     y = np.asarray(y, dtype=float)
     p = a.shape[1]
     scale = float(np.max(np.abs(y))) or 1.0
+    import scipy.optimize  # imported here: about 0.1 s that the command's start-up need not pay
+
     augmented = np.hstack([a, -a[:, n_nonneg:]])
     x, _ = scipy.optimize.nnls(augmented, y / scale, maxiter=50 * augmented.shape[1])
     w = x[:p].copy()

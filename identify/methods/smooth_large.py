@@ -19,7 +19,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.optimize
 
 from .problem import Problem
 from .triangle_penalty import roughness_matrix
@@ -60,6 +59,8 @@ class _Objective:
 
 
 def _minimise(obj: _Objective, z0: np.ndarray, bounds, iterations: int, gtol: float):
+    import scipy.optimize  # imported here: about 0.1 s that the command's start-up need not pay
+
     res = scipy.optimize.minimize(
         obj, z0, jac=True, method="L-BFGS-B", bounds=bounds,
         options={"maxiter": iterations, "maxcor": MEMORY, "ftol": 1e-13, "gtol": gtol},

@@ -1,19 +1,66 @@
-"""All ``rig`` subcommands, one module each; add new ones to :data:`COMMANDS`."""
+"""All ``rig`` subcommands, one module each; add new ones to :data:`COMMANDS`.
 
-from .acquire import acquire
-from .bench import bench
-from .demo import demo
-from .diagnose import diagnose
-from .export import export
-from .identify import identify
-from .import_ import import_
-from .predict import predict
-from .report import report
-from .selftest import selftest
-from .serve_sim import serve_sim
-from .study import study
-from .validate import validate
-from .watch import watch
+A command's module is imported only when that command runs (its imports --
+numpy, scipy, h5py, pymodbus, matplotlib -- are most of a command's start-up
+time), so ``rig --version``, ``rig --help`` and ``rig identify`` do not pay for
+``rig serve-sim``'s or ``rig report``'s.  The one-line help that ``rig --help``
+lists is therefore written here too; a test checks it against each command's
+own docstring.
+"""
 
-COMMANDS = [demo, identify, predict, import_, export, selftest, serve_sim, acquire, validate, report, study, bench,
-            diagnose, watch]
+from __future__ import annotations
+
+import importlib
+from typing import NamedTuple
+
+import click
+
+
+class CommandEntry(NamedTuple):
+    """One subcommand: its name, the module that defines it, the click command's attribute, its one-line help."""
+
+    name: str
+    module: str
+    attribute: str
+    short_help: str
+
+
+#: Every subcommand, in the order ``rig --help`` lists them (alphabetical).
+COMMANDS: tuple[CommandEntry, ...] = (
+    CommandEntry("acquire", "rig.commands.acquire", "acquire",
+                 "Apply an excitation on the rig and record every point in the session OUT."),
+    CommandEntry("bench", "rig.commands.bench", "bench",
+                 "Time every identification method, fast path and dense reference, on simulated data."),
+    CommandEntry("demo", "rig.commands.demo", "demo",
+                 "Acquire, identify, diagnose and report on the simulated VO2 rig, in seconds."),
+    CommandEntry("diagnose", "rig.commands.diagnose", "diagnose",
+                 "Diagnose the sim-to-real gap of equation (22): fit on --fit, judge on --check."),
+    CommandEntry("export", "rig.commands.export", "export", "Write the samples of SESSION as a CSV trace."),
+    CommandEntry("identify", "rig.commands.identify", "identify",
+                 "Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um)."),
+    CommandEntry("import", "rig.commands.import_", "import_",
+                 "Turn FILE (a CSV trace or a MicroMag FORC file) into the session OUT."),
+    CommandEntry("predict", "rig.commands.predict", "predict",
+                 "Predict the output of FILE (a session or a CSV trace) with the model in MODEL_FILE."),
+    CommandEntry("report", "rig.commands.report", "report",
+                 "Write PNG figures and a Markdown summary of SESSION and a model stored in it."),
+    CommandEntry("selftest", "rig.commands.selftest", "selftest",
+                 "Connect, read the sensor, apply a small safe voltage, read it back, return to 0 V."),
+    CommandEntry("serve-sim", "rig.commands.serve_sim", "serve_sim",
+                 "Run the simulated device on loopback until Ctrl-C, in real time."),
+    CommandEntry("study", "rig.commands.study", "study",
+                 "Reproduce the paper's simulation study and print our results beside the paper's."),
+    CommandEntry("validate", "rig.commands.validate", "validate",
+                 "Apply the model stored in SESSION to the run given with --on and report its errors."),
+    CommandEntry("watch", "rig.commands.watch", "watch",
+                 "Serve a web page that follows TARGET -- a session, or a directory of sessions to pick from -- as "
+                 "it is written (by rig acquire in another process), until Ctrl-C.  A session that does not exist "
+                 "yet is waited for."),
+)
+
+BY_NAME: dict[str, CommandEntry] = {entry.name: entry for entry in COMMANDS}
+
+
+def load(entry: CommandEntry) -> click.Command:
+    """The click command of ``entry`` (imports its module)."""
+    return getattr(importlib.import_module(entry.module), entry.attribute)

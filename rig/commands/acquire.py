@@ -32,8 +32,11 @@ from rig.acquisition import (
 )
 from rig.acquisition.progress import ProgressBar, format_duration, terminal_prompt
 from rig.acquisition.runner import resumable
+from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS
 from sessions import DataFileError, Session, Status, StorageError, read_session
 
+from ..budget.acquisition import announce, planned_points, too_many_points
+from ..budget.limits import refuse_unless_confirmed
 from ..errors import RigFault
 from ..output import print_json
 
@@ -133,10 +136,12 @@ def _report(summary: dict, as_json: bool) -> None:
 @click.option("--operator", default="", help="Who runs the acquisition.")
 @click.option("--notes", default="", help="Free-text notes stored with the session.")
 @click.option("--progress/--no-progress", default=None, help="Progress bar on stderr [when stderr is a terminal].")
+@click.option("--yes", is_flag=True, help="Run a plan above the documented limits (1,000,000 points; a week of "
+                                          "rig time on a real clock) after all.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.pass_context
 def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, points, seed, dwell, dwells, settle, poll,
-            transit, readings, measure, out, resume_path, operator, notes, progress, as_json):
+            transit, readings, measure, out, resume_path, operator, notes, progress, yes, as_json):
     """Apply an excitation on the rig and record every point in the session OUT.
 
     Without --config this runs on the simulated device and its virtual
@@ -161,6 +166,8 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         cfg = load_config(config_path) if config_path else default_config()
         rules = setpoint_rules(cfg)
         window = rules.window
+        refuse_unless_confirmed("rig acquire", too_many_points(planned_points(  # before building it
+            sequence, levels, points, thermal_term, DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS)), yes)
         schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points, seed=seed,
                                    thermal_term=thermal_term, dwell=dwell, choices=_dwell_choices(dwells))
         settings = _settings(dwell, settle, poll, transit, readings, schedule)
@@ -169,7 +176,9 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
                             seed=seed, thermal_term=thermal_term),
             settings, measure, seed,
         )
-        AcquisitionPlan.from_record(record).check_window(window, rules.check)  # before the rig is touched
+        plan = AcquisitionPlan.from_record(record)
+        plan.check_window(window, rules.check)  # before the rig is touched
+        announce(plan, dwell, transit, settings.schedule, settle is not None, cfg.clock_kind == "virtual", yes)
         target, total, start = out, record.n_points, 0
 
     bar = ProgressBar(total, start, enabled=sys.stderr.isatty() if progress is None else progress)

@@ -5,10 +5,10 @@ from __future__ import annotations
 import click
 from tqdm import tqdm
 
-from benchmarks.cases import DEFAULT_CASES, Case, parse_case
-from benchmarks.runner import bench as run_bench
 from identify.methods import DAMPED_METHODS
 
+from ..bench.cases import DEFAULT_CASES, Case, parse_case
+from ..bench.runner import bench as run_bench
 from ..errors import UserError
 from ..output import format_table, print_json
 

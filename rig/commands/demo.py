@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import tempfile
 from pathlib import Path
 
@@ -11,6 +12,17 @@ from drivers.sim import EFFECTS, SimParams, SimVO2
 from identify import PreisachModel
 
 from ..output import format_table, print_json
+
+
+#: How long ``rig demo`` takes with the defaults (L = 30) on a quiet 2-core machine (s), for its progress line.
+DEMO_SECONDS = 5.0
+
+
+def _finite(ctx, param, value):
+    """``--strength``: a finite number >= 0 (click's FloatRange lets NaN through)."""
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter(f"must be a finite number >= 0, got {value}")
+    return value
 
 
 def demo_truth(levels: int) -> PreisachModel:
@@ -29,7 +41,7 @@ def demo_truth(levels: int) -> PreisachModel:
               help="How many of the identification run's measured points the methods are fitted on.")
 @click.option("--effect", type=click.Choice([*EFFECTS, "none"]), default="creep", show_default=True,
               help="The unmodelled effect switched on in the simulated device (none: the ideal device).")
-@click.option("--strength", type=click.FloatRange(min=0), default=None,
+@click.option("--strength", type=click.FloatRange(min=0), default=None, callback=_finite,
               help="The effect's strength [the calibrated demo strength: a gap about ten times the noise].")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--out", "-o", "out_dir", type=click.Path(path_type=Path),
@@ -49,11 +61,14 @@ def demo(levels, measurements, effect, strength, seed, out_dir, as_json):
     """
     # the pipeline (diagnosis, plots) is imported here, not when the rig command starts
     from ..demo_pipeline import DemoSettings, run_demo
+    from ..fit_progress import FitProgress
 
     settings = DemoSettings(levels=levels, measurements=measurements, effect=None if effect == "none" else effect,
                             strength=strength, seed=seed)
     out = Path(tempfile.mkdtemp(prefix="rig-demo-")) if out_dir is None else out_dir
-    result = run_demo(settings, out)
+    # on a terminal, the step it is in and about how long is left (about 5 s at L = 30 on a quiet machine)
+    with FitProgress("rig demo", DEMO_SECONDS * max(1.0, (levels / 30) ** 2)) as shown:
+        result = run_demo(settings, out, progress=shown.stage)
     if as_json:
         print_json(result.to_json())
         return

@@ -11,8 +11,11 @@ import click
 from identify import METHODS
 from identify.methods.base import SOLVERS
 
+from ..budget.identification import PROGRESS_AFTER_S, job_cost
+from ..budget.limits import refuse_unless_confirmed
 from ..curve_selection import CURVE_CHOICES
 from ..errors import UserError
+from ..fit_progress import fit_in_process
 from ..output import format_table, print_json, unit_token
 from ..parallel import default_workers, run_parallel, start_workers
 from ..reidentify import IdentifyOptions, fit_job, plan_jobs, result_dict, store_model
@@ -95,8 +98,10 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
               help="Fit partial sessions (running, aborted, failed) too; such a model is stored only with --name.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1),
               help="Processes for several files (default: one per core, at most one per file; one when the fits are too small to repay starting workers).")
+@click.option("--yes", is_flag=True,
+              help="Fit even when the estimate is over the documented limits (30 min or 4 GB per file).")
 def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, with_effects,
-             as_json, save, name, store, force, partial, jobs):
+             as_json, save, name, store, force, partial, jobs, yes):
     """Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um).
 
     From a session, the fit uses the measured points; every applied point
@@ -124,10 +129,18 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     planned = plan_jobs(paths, options)
     if jobs is None and workers > 1 and batch_work(planned) < PARALLEL_WORK:
         workers = 1  # a pool costs about a second to start: more than these fits take one after another
-    for job in planned:
+    costs = [job_cost(job) for job in planned]  # stated before a long fit, refused above the limits
+    for job, cost in zip(planned, costs):
+        refuse_unless_confirmed(f"rig identify {job.path}", cost.exceeded(), yes)
+    for job, cost in zip(planned, costs):
         if job.partial is not None:
             click.echo(f"warning: {job.path} is partial ({job.partial})", err=True)
-    reports = run_parallel(fit_job, planned, workers, desc="identify", unit="file", preload=WORKER_MODULES)
+        if cost.seconds > PROGRESS_AFTER_S:
+            click.echo(f"{job.path}: {cost.describe()}", err=True)
+    if workers == 1:
+        reports = fit_in_process(fit_job, planned, costs, [f"rig identify: {job.path}" for job in planned])
+    else:
+        reports = run_parallel(fit_job, planned, workers, desc="identify", unit="file", preload=WORKER_MODULES)
     for job, report in zip(planned, reports):
         if job.store_as is not None:
             store_model(job, report, force)

@@ -16,6 +16,7 @@ from drivers.sim.bench import SimBench, endpoints_from_config, parse_host_port
 from drivers.sim.journal import open_journal_file
 
 from ..output import print_json
+from ..serve_addresses import check_free
 
 DEFAULT_MODBUS = "127.0.0.1:5020"
 
@@ -55,10 +56,12 @@ def serve_sim(modbus_at, modbus_rtu_at, serial_at, config_path, seed, allow_remo
             modbus_at = DEFAULT_MODBUS
     modbus = parse_host_port(modbus_at, "--modbus", allow_remote) if modbus_at else None
     modbus_rtu = parse_host_port(modbus_rtu_at, "--modbus-rtu", allow_remote) if modbus_rtu_at else None
+    serial_tcp = None
     if serial_at and serial_at != "pty":
         if not serial_at.startswith("socket://"):
             raise click.BadParameter("give socket://HOST:PORT or pty", param_hint="--serial")
-        parse_host_port(serial_at.removeprefix("socket://"), "--serial", allow_remote)
+        serial_tcp = parse_host_port(serial_at.removeprefix("socket://"), "--serial", allow_remote)
+    check_free({"--modbus": modbus, "--modbus-rtu": modbus_rtu, "--serial": serial_tcp})
     device = SimVO2(params, RealClock())
     bench = SimBench(device, cfg.modbus, cfg.serial)
     sink = None

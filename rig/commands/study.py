@@ -81,10 +81,11 @@ def study(profile, runs, measurements, levels, noise, seed, methods, sweep, swee
     found = findings(summary)
     written: list[str] = []
     if plots is not None:
-        from ..study_plots import write_plots
+        from ..plots.study import study_figures
+        from ..plots.style import save_figure
 
         try:
-            written = write_plots(summary, plots)
+            written = [str(save_figure(fig, plots / name)) for name, fig in study_figures(summary).items()]
         except OSError as exc:
             raise UserError(f"cannot write the figures to {plots}: {exc.strerror or exc}") from None
     if as_json:

@@ -31,7 +31,6 @@ import numpy as np
 from identify import Grid
 from identify.acquisition_plan import reversal_points
 from identify.diagnosis import Run
-from sessions import read_session
 from sessions.records import CalibrationRecord
 from sessions.recording import Recording
 
@@ -40,8 +39,6 @@ from ..errors import UserError
 from ..session_input import open_run, partial_state, run_of, same_file
 
 
-#: File names that promise a session (read as one, not as a CSV trace, even when broken).
-HDF5_SUFFIXES = (".h5", ".hdf5", ".he5")
 #: Measured points per run made of curves that the default stride aims at (the carry-over matrix
 #: is check points x identification points, about 70 MB at this size).
 CURVE_RUN_POINTS = 3000
@@ -132,8 +129,6 @@ def load_runs(fit_paths: list[Path], check_paths: list[Path], levels: int | None
     warnings: list[str] = []
     recordings = []
     for path in list(fit_paths) + list(check_paths):
-        if Path(path).suffix.lower() in HDF5_SUFFIXES:
-            read_session(path)  # a session by its name: say what is wrong with it as a session
         data = open_run(path, allow_partial=allow_partial)
         first = recordings[0] if recordings else data
         if (data.input_unit, data.output_unit) != (first.input_unit, first.output_unit):

@@ -76,10 +76,12 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
             "shrink": d.verdict.shrink,
             "contenders": list(d.verdict.contenders),
             "reason": d.verdict.reason,
-            "rmse_with_um": leading.rmse_um if leading and d.verdict.status in ("explained", "ambiguous") else None,
+            "rmse_with_um": _rmse_with(d, leading),
             "share_closed": d.verdict.share_closed,
             "not_visible": [c.effect for c in d.candidates if not c.visible],
             "model": kept_json(d, fit),
+            "effects": list(d.verdict.effects) if d.verdict.status == "explained" else [],
+            "steps": [dict(step) for step in d.verdict.steps] if d.verdict.status == "explained" else [],
         },
         "not_assessed": [{"effect": e, "reason": r} for e, r in d.not_assessed],
         "warnings": list(warnings) + list(d.warnings),
@@ -90,6 +92,14 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
         "units": {"input": d.input_unit, "output": d.output_unit},
         "drift_monitor": drift_monitor,
     }
+
+
+def _rmse_with(d: Diagnosis, leading) -> float | None:
+    """The held-out RMSE with the effect(s) the verdict rests on."""
+    v = d.verdict
+    if v.status == "explained" and len(v.effects) > 1 and v.shrink is not None:
+        return d.baseline_rmse_um * (1.0 - v.shrink)
+    return leading.rmse_um if leading and v.status in ("explained", "ambiguous") else None
 
 
 def identify_command(d: Diagnosis, fit: list[str]) -> str | None:
@@ -149,7 +159,7 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
         lines.append("")
     v = d.verdict
     headline = {
-        "explained": f"EXPLAINED by {v.effect}",
+        "explained": f"EXPLAINED by {' + '.join(v.effects) if v.effects else v.effect}",
         "ambiguous": f"AMBIGUOUS between {', '.join(v.contenders)}",
         "unexplained": "UNEXPLAINED" + (f" (best partial: {v.contenders[0]})" if v.contenders else ""),
         "no_gap": "NO GAP",
@@ -168,7 +178,13 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
             f"held-out check blocks first)"
         )
     chosen = d.chosen
-    if chosen is not None:
+    if v.status == "explained" and len(v.steps) > 1:
+        for step in v.steps:
+            sh = step["share_closed"]
+            lines.append(f"  step {step['effect']}: shrink {100 * step['shrink']:.0f} % of what was left"
+                         + (f", {100 * sh:.0f} % of the excess" if sh is not None else "") + f" (z {step['z']:.1f}).")
+        lines.append(f"  with {' + '.join(v.effects)}: {_fmt(_rmse_with(d, None))} {u}, shrink {100 * v.shrink:.0f} %.")
+    elif chosen is not None:
         c = d.score(chosen)
         share = f", {100 * c.share_closed:.0f} % of the excess over the noise floor" if c.share_closed is not None else ""
         lines.append(f"  with {chosen}: {_fmt(c.rmse_um)} {u}, shrink {100 * c.shrink:.0f} % "

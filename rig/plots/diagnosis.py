@@ -98,5 +98,5 @@ def candidates_figure(d: Diagnosis) -> Figure:
         ax.plot(100 * c.shrink, yi, "o", color=colour, mfc=colour if c.visible else "white")
     ax.axvline(0.0, color=COLOURS["reference"], linewidth=0.8)
     ax.set_yticks(y, [c.effect for c in d.candidates])
-    label_axes(ax, "held-out shrink of the RMSE (%)", None, "Which effect: held-out improvement")
+    label_axes(ax, "held-out shrink of the RMSE (%)", "candidate effect", "Which effect: held-out improvement")
     return fig

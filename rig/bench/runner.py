@@ -30,7 +30,7 @@ from .cases import Case
 
 def measure(case: Case, method: str, solver: str, repeats: int, budget_s: float,
             timeout_s: float, threads: int | None) -> dict:
-    """One worker process (:mod:`benchmarks.worker`); its JSON result, or a status on failure."""
+    """One worker process (:mod:`rig.bench.worker`); its JSON result, or a status on failure."""
     spec = {"levels": case.levels, "measurements": case.measurements, "seed": case.seed,
             "method": method, "solver": solver, "repeats": repeats, "budget_s": budget_s}
     env = dict(os.environ)
@@ -39,7 +39,7 @@ def measure(case: Case, method: str, solver: str, repeats: int, budget_s: float,
             env[name] = str(threads)
     try:
         done = subprocess.run(
-            [sys.executable, "-m", "benchmarks.worker", json.dumps(spec)],
+            [sys.executable, "-m", "rig.bench.worker", json.dumps(spec)],
             capture_output=True, text=True, timeout=timeout_s, env=env, check=False,
         )
     except subprocess.TimeoutExpired:

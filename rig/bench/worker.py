@@ -1,4 +1,4 @@
-"""Measure one (case, method, solver) in this process; run as ``python -m benchmarks.worker SPEC``.
+"""Measure one (case, method, solver) in this process; run as ``python -m rig.bench.worker SPEC``.
 
 ``SPEC`` is a JSON object ``{"levels", "measurements", "seed", "method",
 "solver", "repeats", "budget_s"}``; ``solver`` is ``"fast"`` (the method's
@@ -56,6 +56,8 @@ def measure(spec: dict) -> dict:
 
     if spec["solver"] == "dense":
         import cvxpy  # noqa: F401  (the dense path imports it on first use; not part of the timing)
+    import scipy.fft  # noqa: F401  (nor are the imports the fast paths make on first use)
+    import scipy.optimize  # noqa: F401
 
     baseline = _maxrss_mb()
     seconds: list[float] = []

@@ -1,0 +1,64 @@
+"""Start-up: a command imports what it needs and nothing else (issue 17, finding 3).
+
+Timing is measured by ``benchmarks/cold_start.py``, not asserted here; what
+is asserted is the cause of a slow start: which packages a fresh process
+imports to run a command.
+"""
+
+from __future__ import annotations
+
+import inspect
+import json
+import subprocess
+import sys
+
+import pytest
+
+from rig.commands import BY_NAME, COMMANDS, load
+
+from .cli import rig_here
+
+#: Packages no command needs merely to start.
+HEAVY = ("numpy", "scipy", "h5py", "identify", "sessions", "drivers", "pymodbus", "serial", "matplotlib",
+         "cvxpy", "clarabel", "tqdm")
+
+
+def imported_by(args: list[str], cwd) -> set[str]:
+    """Top-level packages (and scipy subpackages) a fresh interpreter has imported after ``rig ARGS``."""
+    code = (
+        "import json, sys\n"
+        "from rig.cli import main\n"
+        f"sys.argv = ['rig', *{args!r}]\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass\n"
+        "names = {m.split('.')[0] for m in sys.modules} | {m for m in sys.modules if m.startswith('scipy.')}\n"
+        "sys.stderr.write(json.dumps(sorted(names)))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=cwd, timeout=120)
+    return set(json.loads(done.stderr.strip().splitlines()[-1]))
+
+
+@pytest.mark.parametrize("args", [["--version"], ["--help"]])
+def test_version_and_help_import_no_numerics_drivers_or_files(args, tmp_path):
+    loaded = imported_by(args, tmp_path)
+    assert not loaded & set(HEAVY), sorted(loaded & set(HEAVY))
+
+
+def test_identify_imports_neither_the_drivers_nor_the_plots_nor_the_dense_solvers(tmp_path):
+    session = tmp_path / "s.h5"
+    assert rig_here("acquire", "--levels", "6", "--out", session, "--no-progress").code == 0
+    loaded = imported_by(["identify", str(session), "--method", "cs_nodct", "--no-store"], tmp_path)
+    assert {"numpy", "scipy", "h5py", "identify", "sessions"} <= loaded  # it did run
+    unwanted = {"drivers", "pymodbus", "serial", "matplotlib", "cvxpy", "tqdm", "scipy.optimize", "scipy.stats",
+                "scipy.fft", "scipy.interpolate", "scipy.spatial"}
+    assert not loaded & unwanted, sorted(loaded & unwanted)
+
+
+def test_help_lists_every_command_with_its_own_first_sentence():
+    for entry in COMMANDS:
+        command = load(entry)
+        first = inspect.cleandoc(command.help).split("\n\n")[0].replace("\n", " ")
+        assert entry.short_help == first, entry.name
+        assert command.name == entry.name
+    section = rig_here("--help").out.split("Commands:")[1]
+    listed = [line.split()[0] for line in section.splitlines() if line.startswith("  ") and line.strip()]
+    assert listed == sorted(BY_NAME)
