@@ -35,10 +35,16 @@ def rig(*args, timeout: float = 120, input: str | None = None) -> Run:
     return Run(p.returncode, p.stdout, p.stderr)
 
 
+def error_lines(err: str) -> list[str]:
+    """The non-empty stderr lines but the plan ``rig acquire`` states before it starts (``plan: ...``),
+    which is information, not part of an error."""
+    return [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("plan: ")]
+
+
 def assert_one_line_error(run: Run, *fragments: str) -> None:
     """Exit 2, a single stderr line, no traceback, naming the problem."""
     assert run.code == 2, (run.code, run.err)
-    lines = [ln for ln in run.err.splitlines() if ln.strip()]
+    lines = error_lines(run.err)
     assert "Traceback" not in run.err
     assert len(lines) == 1, run.err
     for f in fragments:

@@ -20,6 +20,7 @@ import pytest
 
 from sessions import SampleFlag, Status, read_session
 
+from .cli import error_lines
 from .acquirekit import Child, wait_for_samples
 from .conftest import digest
 from .faultkit import FAULT_MAP, SimServer, rig_exe
@@ -42,7 +43,7 @@ def shared_server(tmp_path_factory):
 
 
 def one_line(err: str) -> str:
-    lines = [ln for ln in err.splitlines() if ln.strip()]
+    lines = error_lines(err)
     assert "Traceback" not in err and len(lines) == 1, err
     return lines[0]
 

@@ -13,7 +13,7 @@ from drivers.modbus_registers import InputPoint, RegisterPoint
 from sessions import Status, read_session
 
 from .benchsim import EXACT, modbus_toml, served
-from .cli import assert_one_line_error, rig_here
+from .cli import assert_one_line_error, error_lines, rig_here
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -94,7 +94,7 @@ def test_an_instrument_that_refuses_a_setpoint_mid_run_is_not_followed_by_advice
         cfg.write_text(modbus_toml(bench).replace("max_V = 6.0", "max_V = 12.0"))
         path = tmp_path / "s.h5"
         run = rig_here("acquire", "--config", cfg, *QUICK, "--out", path)
-        lines = [ln for ln in run.err.splitlines() if ln.strip()]
+        lines = error_lines(run.err)
         assert run.code == 3 and len(lines) == 1, run.err
         assert "Modbus exception 3" in lines[0] and "rig acquire --resume" not in lines[0]
         assert "cannot be completed on this rig as configured" in lines[0]
