@@ -19,6 +19,7 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 from matplotlib.figure import Figure
 
 from identify.branch import branches
@@ -61,13 +62,34 @@ class Report:
     markdown: str = ""
 
 
+def effect_contributions(record: ModelRecord, data: Recording) -> dict[str, np.ndarray]:
+    """Each of the model's effects' contribution to the reading over the run ``(n,)`` (empty without effects);
+    a drift of a run the model was not fitted on contributes nothing here."""
+    if not record.model.effects:
+        return {}
+    from identify.effects.compose import contributions
+
+    from .session_input import run_of
+
+    return contributions(record.model, run_of(data))
+
+
 def run_figures(run: ScoredRun, record: ModelRecord, prefix: str, what: str) -> dict[str, Figure]:
-    """Time, loop and residual figures of one run (file names start with ``prefix``)."""
+    """Time, loop and residual figures of one run (file names start with ``prefix``), and the effects'
+    contributions beside the residual when the model has effects."""
     d, s = run.data, run.score
     vq, yq = quantities_of(d)
     name = f"{d.path.name}, model {record.name}"
     steps = max(1, min(8, PATH_POINTS // max(1, d.inputs.size)))
-    return {
+    extra = {}
+    parts = effect_contributions(record, d)
+    if parts:
+        from .plots.effects import effects_figure
+
+        extra[f"{prefix}effects.png"] = effects_figure(
+            d.t_s if d.t_s is not None else np.arange(d.inputs.size, dtype=float), parts, s.rows, s.residual, yq,
+            title=f"Effects of the model and the residual, {what.lower()}\n{name}")
+    return {**extra, **{
         f"{prefix}time.png": time_figure(d.t_s, d.inputs, d.outputs, vq, yq, prediction=s.prediction,
                                          title=f"{what}\n{name}"),
         f"{prefix}loop.png": loop_figure(d.inputs, d.outputs, vq, yq, model_path=model_path(record.model, d.inputs, steps),
@@ -76,7 +98,7 @@ def run_figures(run: ScoredRun, record: ModelRecord, prefix: str, what: str) -> 
             d.inputs[s.rows], s.residual, branches(d.inputs)[s.rows], vq, yq,
             title=f"Residual, {what.lower()}: RMSE {s.rmse:.3g} {display_unit(yq.unit)}, "
                   f"nRMSE {nrmse_text(s.nrmse)}\n{name}"),
-    }
+    }}
 
 
 def score_runs(record: ModelRecord, data: Recording, validation: Recording | None = None
@@ -99,6 +121,7 @@ def build_report(fitted: ScoredRun, record: ModelRecord, validation: ScoredRun |
         "density.png": density_figure(record.model, vq, yq,
                                       title=f"Identified density\n{fitted.data.path.name}, model {record.name} ({record.method})"),
         "residual.png": own["residual.png"],
+        **({"effects.png": own["effects.png"]} if "effects.png" in own else {}),
     }
     if validation is not None:
         report.figures.update(run_figures(validation, record, "validation-", "Validation run"))
@@ -159,6 +182,7 @@ CAPTIONS = {
     "loop.png": "Hysteresis loop, measured and model",
     "density.png": "Identified density on the Preisach triangle",
     "residual.png": "Residual against input, by branch",
+    "effects.png": "The model's effects over the run, beside the residual",
 }
 
 
@@ -179,6 +203,7 @@ def summary_markdown(fitted: ScoredRun, record: ModelRecord, validation: ScoredR
         ("method", record.method),
         ("grid", f"L = {g.levels} on [{g.v_min:g}, {g.v_max:g}] {iu}"),
         ("thermal term", "yes" if record.thermal_term else "no"),
+        *([("effects", ", ".join(e.name for e in m.effects))] if m.effects else []),
         ("mu0", f"{_fmt(m.mu0)} {ou}"),
         ("c_d", f"{_fmt(m.c_d)} {ratio_unit(yq.unit, vq.unit)}"),
         ("fitted on", used),
@@ -190,13 +215,15 @@ def summary_markdown(fitted: ScoredRun, record: ModelRecord, validation: ScoredR
     lines += ["", "Prediction of every measured point of this run (memory from negative saturation):", ""]
     lines += _table(_score_rows(fitted.score, ou))
     lines += ["", "## Figures"]
-    lines += _figures(["time.png", "loop.png", "density.png", "residual.png"], CAPTIONS)
+    own = ["time.png", "loop.png", "density.png", "residual.png"] + (["effects.png"] if m.effects else [])
+    lines += _figures(own, CAPTIONS)
     if validation is not None:
         v_session = validation.data.session
         lines += ["", f"## Validation on {validation.data.path.name}", ""]
         lines += _table(_session_rows(v_session, validation.data) + _score_rows(validation.score, ou))
-        lines += _figures(["validation-time.png", "validation-loop.png", "validation-residual.png"],
-                          {f"validation-{k}": v for k, v in CAPTIONS.items()})
+        names = ["validation-time.png", "validation-loop.png", "validation-residual.png"]
+        names += ["validation-effects.png"] if m.effects else []
+        lines += _figures(names, {f"validation-{k}": v for k, v in CAPTIONS.items()})
     return "\n".join(lines) + "\n"
 
 

@@ -247,3 +247,22 @@ def test_rig_identify_with_bad_effects_is_one_line_and_changes_nothing(tmp_path)
     assert_one_line_error(rig("identify", same, "--with", "thermal_lag"), "thermal_lag cannot be identified",
                           "--dwells")
     assert digest(path) == before
+
+
+def test_rig_report_draws_each_effect_over_the_run_beside_the_residual(tmp_path):
+    from rig.plots.effects import effects_figure
+    from rig.plots.style import DEFLECTION
+
+    truth, _, y = _truth("first_point")
+    path = _session(tmp_path, y)
+    assert rig("identify", path, "--with", "first_point,joule_power", "--name", "fx").code == 0
+    run = rig("report", path, "--model", "fx", "--out", tmp_path / "rep", "--json")
+    assert run.code == 0, run.err
+    assert str(tmp_path / "rep" / "effects.png") in run.json()["figures"]
+    assert "![The model's effects over the run" in (tmp_path / "rep" / "report.md").read_text()
+    # the figure itself: one panel per effect, then the residual, on one time axis
+    parts = {"first_point": np.where(np.arange(V.size) % 7 == 0, 0.01, 0.0), "joule_power": 0.07 * V ** 2}
+    fig = effects_figure(T, parts, np.arange(V.size), np.zeros(V.size), DEFLECTION)
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert labels == ["first_point (µm)", "joule_power (µm)", "residual (µm)"]
+    np.testing.assert_allclose(fig.axes[1].lines[1].get_ydata(), parts["joule_power"])

@@ -6,6 +6,7 @@
 * :mod:`rig.plots.density` -- the density on the Preisach triangle;
 * :mod:`rig.plots.residuals` -- residual against input by branch;
 * :mod:`rig.plots.diagnosis` -- the gap diagnosis: binned residuals before and after, candidates;
+* :mod:`rig.plots.effects` -- a model's effects over a run, beside the residual;
 * :mod:`rig.plots.study` -- the simulation study (the paper's figures 3-6).
 
 Nothing here reads files or touches ``pyplot``; :func:`save_figure` writes
