@@ -65,8 +65,8 @@ Z_SIGNIFICANT = 3.0
 Z_SEPARATED = 2.0
 Z_GAP = 3.0
 MOST = 0.75
-#: A second effect must take away at least this share of what the first leaves of the excess (when the
-#: first alone already closes most of it); see :meth:`Evidence.decide`.
+#: A second effect must take away at least this share of what the first leaves of the excess; see
+#: :meth:`Evidence.decide`.
 SECOND_SHARE = 0.5
 
 STATUSES = ("explained", "ambiguous", "unexplained", "no_gap")
@@ -237,7 +237,8 @@ class Evidence:
             left_by_first = self.mse[best] - (self.mse_base - excess)
             takes = gain2 / left_by_first if left_by_first > 0 else 0.0
             needed = share is not None and share < MOST
-            if (needed and joint_share >= MOST) or (not needed and takes >= SECOND_SHARE):
+            alone = z[j] >= Z_SIGNIFICANT and gain[j] > 0  # a second effect stands on its own too
+            if alone and takes >= SECOND_SHARE and (joint_share >= MOST or not needed):
                 steps = ({"effect": names[best], "shrink": float(shrink[best]), "share_closed": share,
                           "z": float(z[best])},
                          {"effect": names[j], "shrink": float(1.0 - np.sqrt(mse_pair / self.mse[best])),

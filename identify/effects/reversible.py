@@ -3,14 +3,20 @@
 Added to the Preisach output, it replaces and extends the thermal term
 ``c_d v`` of equation (22) (its first term: thermal expansion is not
 exactly linear in the voltage; a magnetic sample's reversible
-magnetisation is not linear in the field).  Piecewise linear on knots --
-the grid's walls -- with value 0 at the lowest (the bias ``mu0`` holds the
-constant), constant beyond the ends::
+magnetisation is not linear in the field).  A cubic spline of the input
+with knots on the grid's walls, value 0 at the lowest wall (the bias
+``mu0`` holds the constant), constant beyond the ends::
 
-    R(v) = sum_k d_k ramp_k(v)          (ramps of :func:`identify.effects.bases.ramps`)
+    R(v) = sum_k d_k G_k(v),     G_k = sum_{j >= k} (B_j(v) - B_j(v_0))
 
-Option ``monotone`` (``--with reversible:monotone``): the increments ``d_k``
-share one sign (chosen by the fit), so ``R`` rises or falls throughout.
+``B_j`` the cubic B-splines on the walls and ``d_k`` the increments of
+their coefficients, so that a roughness penalty on the increments'
+differences (second differences of the coefficients) leaves a straight
+line free, and -- option ``monotone`` (``--with reversible:monotone``) --
+increments of one sign (chosen by the fit) make ``R`` rise or fall
+throughout.  Cubic within each cell: on a run whose identification inputs
+sit on the walls, what the density cannot absorb of a smooth ``R`` lives
+inside the cells, where a piecewise-linear form has nothing to offer.
 
 **Identifiability.**  On the walls, diagonal cell ``(i, i)`` is +1 exactly
 when the input is above it, so any function of the input, sampled on the
@@ -29,7 +35,7 @@ from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite_array, require_params
-from .bases import ramps
+from .bases import second_differences
 
 OPTIONS = ("monotone",)
 #: Weights of the roughness penalty (second differences of the values at the knots) the diagnosis tries.
@@ -50,6 +56,33 @@ def needs_off_wall(runs: tuple[Run, ...], grid: Grid, name: str) -> str | None:
             "the damped oscillation's thermal point, a run on another grid)")
 
 
+DEGREE = 3
+
+
+def _knots(walls: np.ndarray) -> np.ndarray:
+    w = np.asarray(walls, dtype=float)
+    return np.concatenate([[w[0]] * DEGREE, w, [w[-1]] * DEGREE])
+
+
+def increment_basis(walls: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``(n, K - 1)``: ``G_k`` (see the module doc) at ``v`` (clamped to the walls), ``K`` cubic B-splines."""
+    from scipy.interpolate import BSpline
+
+    knots = _knots(walls)
+    w = np.asarray(walls, dtype=float)
+    x = np.clip(np.asarray(v, dtype=float), w[0], w[-1])
+    b = BSpline.design_matrix(x, knots, DEGREE).toarray()
+    b0 = BSpline.design_matrix(np.array([w[0]]), knots, DEGREE).toarray()
+    b = b - b0
+    return np.cumsum(b[:, ::-1], axis=1)[:, ::-1][:, 1:]
+
+
+def greville(walls: np.ndarray) -> np.ndarray:
+    """The Greville abscissae of the cubic B-splines on ``walls``."""
+    t = _knots(walls)
+    return np.array([t[j + 1:j + 1 + DEGREE].mean() for j in range(t.size - DEGREE - 1)])
+
+
 class Reversible(Effect):
     name = "reversible"
     summary = "a reversible (anhysteretic) component: a smooth single-valued function of the input"
@@ -61,13 +94,12 @@ class Reversible(Effect):
         self.monotone = bool(monotone if params is None else self.params.get("monotone", False))
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
-        require_params(params, ("knots", "values_um"), self.name)
-        knots = finite_array(params, "knots", self.name)
-        values = finite_array(params, "values_um", self.name)
-        if knots.size < 2 or values.size != knots.size or np.any(np.diff(knots) <= 0):
-            raise IdentifyError(f"effect {self.name!r}: 'knots' must rise and match 'values_um' in length (>= 2)")
-        return {"knots": [float(x) for x in knots], "values_um": [float(x) for x in values],
-                "monotone": bool(params.get("monotone", False))}
+        require_params(params, ("walls", "increments_um"), self.name)
+        walls = finite_array(params, "walls", self.name)
+        inc = finite_array(params, "increments_um", self.name)
+        if walls.size < 2 or np.any(np.diff(walls) <= 0) or inc.size != walls.size + DEGREE - 2:
+            raise IdentifyError(f"effect {self.name!r}: 'walls' must rise, with {walls.size + DEGREE - 2} increments")
+        return {"walls": walls.tolist(), "increments_um": inc.tolist(), "monotone": bool(params.get("monotone", False))}
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         return needs_off_wall(runs, grid, self.name)
@@ -81,31 +113,35 @@ class Reversible(Effect):
         return [{"sign": s, "smoothing": FIT_SMOOTHING} for s in signs]
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
-        """Ramps between the walls (coefficients: the increments between knots); the penalty is the squared
-        differences of neighbouring increments (second differences of the values), so a straight line is
-        free."""
-        knots = ctx.grid.walls
+        """``G_k`` at every point; the penalty is the squared differences of neighbouring increments over the
+        Greville abscissae (second divided differences of the coefficients): a straight line is free."""
+        walls = ctx.grid.walls
         sign = setting.get("sign", 1.0)
-        labels = tuple(f"step_{k}" for k in range(1, knots.size))
-        values = [sign * ramps(knots, r.inputs) for r in ctx.runs]
-        k = len(labels)
-        d = np.diff(np.eye(k), n=1, axis=0)
-        return Columns(tuple(values), labels, (self.monotone,) * k, (-1,) * k, d.T @ d if k > 1 else None,
-                       setting.get("smoothing", 0.0))
+        values = [sign * increment_basis(walls, r.inputs) for r in ctx.runs]
+        k = values[0].shape[1]
+        labels = tuple(f"increment_{j}" for j in range(1, k + 1))
+        g = greville(walls)
+        # increments d_k = c_k - c_{k-1}: the coefficients' second differences are the increments' first
+        # differences, weighed as second divided differences over the abscissae
+        d2 = second_differences(g)                      # (K - 2, K) on the coefficients c
+        to_c = np.tril(np.ones((k + 1, k)), -1)          # c = to_c @ d (c_0 = 0)
+        rough = (d2 @ to_c).T @ (d2 @ to_c)
+        return Columns(tuple(values), labels, (self.monotone,) * k, (-1,) * k, rough, setting.get("smoothing", 0.0))
 
     def with_fit(self, ctx, setting, coef, cols) -> "Reversible":
-        knots = ctx.grid.walls
-        steps = setting.get("sign", 1.0) * np.asarray(coef, dtype=float)
-        values = np.concatenate([[0.0], np.cumsum(steps)])
-        return Reversible({"knots": knots.tolist(), "values_um": values.tolist(), "monotone": self.monotone})
+        inc = setting.get("sign", 1.0) * np.asarray(coef, dtype=float)
+        return Reversible({"walls": ctx.grid.walls.tolist(), "increments_um": inc.tolist(), "monotone": self.monotone})
 
     def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
         p = self.params
-        return np.interp(run.inputs, p["knots"], p["values_um"])
+        return increment_basis(np.asarray(p["walls"]), run.inputs) @ np.asarray(p["increments_um"])
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
-        v = np.asarray(self.params["values_um"])
-        k = np.asarray(self.params["knots"])
-        slope = np.diff(v) / np.diff(k)
-        return {**self.params, "range_um": float(np.ptp(v)), "mean_slope_um_per_V": float((v[-1] - v[0]) / (k[-1] - k[0])),
-                "slope_range_um_per_V": [float(slope.min()), float(slope.max())]}
+        w = np.asarray(self.params["walls"])
+        v = np.linspace(w[0], w[-1], 8 * (w.size - 1) + 1)
+        r = increment_basis(w, v) @ np.asarray(self.params["increments_um"])
+        slope = np.diff(r) / np.diff(v)
+        return {"monotone": self.params["monotone"], "range_um": float(np.ptp(r)),
+                "mean_slope_um_per_V": float((r[-1] - r[0]) / (v[-1] - v[0])),
+                "slope_range_um_per_V": [float(slope.min()), float(slope.max())],
+                "values_at_walls_um": (increment_basis(w, w) @ np.asarray(self.params["increments_um"])).tolist()}
