@@ -14,14 +14,12 @@ A change of the output relaxes afterwards (um), and relaxations add up
   where it is towards the size of the current excursion.
 
 The kernel is a relaxation spectrum, ``K(t) = s sum_j a_j exp(-t / tau_j)``
-with ``a_j >= 0`` over :data:`TIME_CONSTANTS_S` (2 s to 33 min, log-spaced)
+with ``a_j >= 0`` over :data:`TIME_CONSTANTS_S` (2 s to 5.5 h, log-spaced)
 and one sign ``s`` (a setting): it decays monotonically whatever its shape
 -- a single exponential, a stretched exponential, a power law, logarithmic
 creep over the spectrum's span (any completely monotone kernel is such a
-mixture).  The span stops at half an hour on purpose: over a run of an hour
-or two a relaxation of several hours after every change of the output
-cannot be told from a drift of the output, and a spectrum reaching that far
-took the place of a withheld drift candidate.  A roughness penalty on the spectrum over ``log tau`` (its
+mixture), or logarithmic and Andrade creep that keep growing over the
+run (their growth over hours is a sum of long relaxations).  A roughness penalty on the spectrum over ``log tau`` (its
 weight a setting, chosen by cross-validation in the diagnosis) keeps the
 family from paying for its flexibility with noise.  Each relaxation is
 summed recursively (one pass per time constant), so long runs cost
@@ -40,11 +38,12 @@ from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite_array, needs_reversals, needs_time
 
 #: Relaxation times of the kernel (s): log-spaced from 2 s to 5.5 h.
-TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(2.0, 2000.0, 7))
+TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(2.0, 20000.0, 9))
 #: What drives the relaxation (a setting).
 DRIVES = ("reversal", "output", "phase", "excursion")
-#: Weights of the spectrum's roughness penalty tried by the diagnosis (relative to the data).
-SMOOTHING = (0.01, 1.0)
+#: Weights of the spectrum's roughness penalty tried by the diagnosis (relative to the data): one, light
+#: (a second weight doubled the settings to choose among, and the choice itself cost more than it bought).
+SMOOTHING = (0.01,)
 #: The weight when a model is fitted with creep (``rig identify --with``).
 FIT_SMOOTHING = 0.01
 
