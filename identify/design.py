@@ -25,9 +25,24 @@ design built lives as long as the design.  (Not to be confused with
 :class:`identify.diagnosis.scoring.Design`, a diagnosis candidate's columns.)
 
 **The square design.**  The fast paths of ``cs``, ``cs_order``,
-``cs_order_nn`` and ``cs_nodct`` need ``S`` square and invertible
-(Proposition 1): the damped oscillation of the grid, plus with the thermal
-term the thermal point (:mod:`identify.excitation`).
+``cs_order_nn`` and ``cs_nodct`` need ``S`` square and invertible: as many
+applied inputs as equation (22) has parameters (Proposition 1: the damped
+oscillation, plus with the thermal term one more point).  Any such design
+is accepted -- the damped oscillation in another order (e.g. from the
+bottom up), the thermal point anywhere that keeps ``S`` invertible (off the
+walls, or beyond the range where only ``c_d v`` changes) -- and checked:
+
+1. with the thermal term, a design whose inputs all sit on walls is refused
+   without numerics: there ``v`` is an affine function of the diagonal
+   cells' signed areas (:mod:`identify.excitation`), so ``S`` is singular
+   whatever the order;
+2. otherwise ``S`` is factorised sparsely and its reciprocal condition
+   number estimated from a few solves
+   (:meth:`~identify.square.SquareSolver.reciprocal_condition`); below
+   :data:`SINGULAR_RCOND` the design is refused, naming the parameters it
+   cannot tell apart.  The dense reference paths check their dense LU the
+   same way (LAPACK's ``dgecon``; :attr:`identify.methods.Problem.square_lu`,
+   which, like the dense ``S``, belongs to the problem, not the design).
 """
 
 from __future__ import annotations
@@ -42,12 +57,31 @@ from .errors import IdentifyError, MethodNotApplicable
 from .grid import Grid
 from .memory import InitialState
 from .operators import RegressorOperator
-from .excitation import damped_oscillation
 from .regressor import check_inputs, n_parameters
 from .square import SquareSolver
 
 #: Reciprocal condition number (1-norm) below which a square design counts as singular.
 SINGULAR_RCOND = 1e-12
+
+#: Up to how many cells a singular design cannot tell apart are named in the refusal (more are counted).
+NAMED_CELLS = 3
+
+
+def thermal_point_row(grid: Grid, inputs: np.ndarray) -> int | None:
+    """The thermal point of a square thermal-term design: its row, or None.
+
+    A design with as many inputs ``(n,)`` (V) as equation (22) with the
+    thermal term has parameters, all on the walls of ``grid`` but one: that
+    one is the thermal point, the only row through which ``c_d`` can be
+    identified (on the walls ``v`` is affine in the diagonal cells).  The
+    damped oscillation plus the thermal point gives its last row.
+    """
+    v = np.asarray(inputs, dtype=float)
+    if v.shape != (n_parameters(grid, True),):
+        return None
+    off = np.flatnonzero(~grid.on_walls(v))
+    return int(off[0]) if off.size == 1 else None
+
 
 def _frozen(a: np.ndarray) -> np.ndarray:
     a = np.array(a, dtype=float, copy=True)
@@ -114,6 +148,12 @@ class Design:
         """Whether ``S`` is square (``n == P``); invertible or not, see :attr:`square_solver`."""
         return self.n == self.n_parameters
 
+    @cached_property
+    def thermal_row(self) -> int | None:
+        """The row of the thermal point (see :func:`thermal_point_row`), or None; always None without
+        the thermal term."""
+        return thermal_point_row(self.grid, self.inputs) if self.thermal_term else None
+
     # ---------------------------------------------------------- what it builds
     @cached_property
     def operator(self) -> RegressorOperator:
@@ -127,16 +167,20 @@ class Design:
         if reason is not None:
             return reason
         try:
-            return SquareSolver(self.operator)
-        except IdentifyError as exc:  # SuperLU met an exactly zero pivot
-            return str(exc)
+            solver = SquareSolver(self.operator)
+        except IdentifyError:  # SuperLU met an exactly zero pivot
+            return self.singular_reason(None)
+        rcond, direction = solver.reciprocal_condition()
+        if rcond < SINGULAR_RCOND:
+            return self.singular_reason(rcond, direction)
+        return solver
 
     @property
     def square_solver(self) -> SquareSolver:
         """Sparse factorisation of the square design (:class:`~identify.square.SquareSolver`).
 
-        Built once; raises :class:`MethodNotApplicable` with the reason
-        when this is not the square design, or ``S`` is singular.
+        Built and checked once; raises :class:`MethodNotApplicable` with the
+        reason when ``S`` is not square or not invertible.
         """
         solver = self._square
         if isinstance(solver, str):
@@ -154,31 +198,52 @@ class Design:
 
     # ---------------------------------------------------------- reasons
     def require_square_shape(self) -> None:
-        """Raise :class:`MethodNotApplicable` unless this is the square damped-oscillation design."""
+        """Raise :class:`MethodNotApplicable` when ``S`` cannot be square and invertible, before any
+        numerics: not square, or (with the thermal term) every input on a wall."""
         reason = self._square_shape()
         if reason is not None:
             raise MethodNotApplicable(reason)
 
     def _square_shape(self) -> str | None:
-        """Why ``S`` is not the square damped-oscillation design, or None."""
-        grid, L, P = self.grid, self.grid.levels, self.n_parameters
-        design = "damped oscillation" + (" plus the thermal point" if self.thermal_term else "")
+        """Why ``S`` cannot be square and invertible before any numerics, or None."""
+        grid, P = self.grid, self.n_parameters
         if not self.is_square:
-            return f"needs the square {design} design: {P} applied inputs for L={L}, got {self.n}"
-        on_walls = grid.on_walls(self.inputs)
-        if self.thermal_term:
-            on_walls[-1] = True  # the thermal point is off-wall by design
-        if not np.all(on_walls):
-            k = int(np.flatnonzero(~on_walls)[0])
-            return (f"input {k} ({self.inputs[k]:.6g}) is not on a wall of the {L}-level grid "
-                    f"on [{grid.v_min:g}, {grid.v_max:g}]; the {design} sits on the walls")
-        expected = damped_oscillation(grid, self.thermal_term)
-        tol = 1e-9 * (grid.v_max - grid.v_min)
-        if not np.allclose(self.inputs, expected, rtol=0, atol=tol):
-            k = int(np.flatnonzero(~np.isclose(self.inputs, expected, rtol=0, atol=tol))[0])
-            return f"input {k} ({self.inputs[k]:.6g}) differs from the {design} ({expected[k]:.6g}) of this grid"
+            design = "the damped oscillation" + (" plus a thermal point" if self.thermal_term else "")
+            return (f"needs a square design, as many applied inputs as equation (22) has parameters "
+                    f"({design}): {P} for L={grid.levels}, got {self.n}")
+        if self.thermal_term and np.all(grid.on_walls(self.inputs)):
+            return (f"needs an invertible S, but every input of this square design sits on a wall of the "
+                    f"{grid.levels}-level grid on [{grid.v_min:g}, {grid.v_max:g}], the thermal point's "
+                    "included: on the walls v is an affine function of the diagonal cells' signed areas, "
+                    "so S is singular; put the thermal point off the walls (e.g. half a cell above the "
+                    "last point) or beyond the range")
         return None
 
-    def singular_reason(self, rcond: float) -> str:
-        """Why the dense reference refuses this square design: ``S`` singular (``dgecon``'s ``rcond``)."""
-        return f"the square design matrix S is singular (rcond {rcond:.1e})"
+    def singular_reason(self, rcond: float | None, direction: np.ndarray | None = None) -> str:
+        """Why this square design is refused: ``S`` singular, with reciprocal condition number
+        ``rcond`` (None: the sparse factorisation met an exactly zero pivot).  ``direction`` ``(P,)``,
+        a column of the computed ``S^{-1}`` (:meth:`~identify.square.SquareSolver.reciprocal_condition`),
+        names the parameters that ``S`` cannot tell apart: those with a sizeable entry in it."""
+        if rcond is None:
+            why = "its sparse factorisation meets an exactly zero pivot"
+        else:
+            why = f"reciprocal condition number {rcond:.1e}, below {SINGULAR_RCOND:g}"
+        head = f"needs an invertible S, but this square design's is singular ({why})"
+        if direction is None or not np.all(np.isfinite(direction)) or not np.any(direction):
+            return head
+        size = np.abs(direction)
+        involved = np.flatnonzero(size >= 1e-3 * size.max())
+        c = self.grid.n_cells
+        cells = involved[involved < c]
+        names = ([self.parameter_name(int(k)) for k in cells] if cells.size <= NAMED_CELLS
+                 else [f"{cells.size} cells"])
+        names += [self.parameter_name(int(k)) for k in involved[involved >= c]]
+        apart = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+        return f"{head}: it cannot tell apart {apart}"
+
+    def parameter_name(self, k: int) -> str:
+        """What entry ``k`` of ``w`` is: ``cell (i, j)`` (alpha band i, beta band j from v_min), ``mu0`` or ``c_d``."""
+        c = self.grid.n_cells
+        if k < c:
+            return f"cell ({int(self.grid.cell_alpha[k])}, {int(self.grid.cell_beta[k])})"
+        return "mu0" if k == c else "c_d"

@@ -16,6 +16,7 @@ them -- at L = 200 the dense ``S`` would take 3.2 GB.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -314,15 +315,21 @@ class Problem:
         return self.operator.matvec(np.asarray(w, dtype=float))
 
     # ---------------------------------------------------------- square design
-    def require_square(self) -> None:
-        """Raise :class:`MethodNotApplicable` unless this is the square damped-oscillation design.
+    def require_square(self, solver: str = "fast") -> None:
+        """Raise :class:`MethodNotApplicable` with the reason unless ``S`` is square and invertible.
 
-        The applied input must be the damped oscillation of this grid (with
-        the thermal point when the thermal term is on), so that ``S`` is
-        square and invertible (Proposition 1); see :mod:`identify.design`.
+        Any square design whose ``S`` is invertible will do -- the damped
+        oscillation in any order, the thermal point anywhere that keeps
+        ``S`` invertible -- checked numerically by the path that will solve
+        with ``S``: the design's sparse factorisation (``solver="fast"``) or
+        this problem's dense LU (``"dense"``, :attr:`square_lu`); see
+        :mod:`identify.design`.
         """
-        self._require_square_kind()
-        self.design.require_square_shape()
+        if solver == "dense":
+            self.square_lu
+        else:
+            self._require_square_kind()
+            self.design.square_solver
 
     def _require_square_kind(self) -> None:
         """Refuse extra columns and FORC data before anything else, saying what to use instead."""
@@ -350,7 +357,9 @@ class Problem:
         """
         self._require_square_kind()
         self.design.require_square_shape()
-        lu, piv = scipy.linalg.lu_factor(self.regressor, check_finite=False)
+        with warnings.catch_warnings():  # an exactly singular S is refused below, with the reason
+            warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+            lu, piv = scipy.linalg.lu_factor(self.regressor, check_finite=False)
         anorm = np.abs(self.regressor).sum(axis=0).max()
         rcond, _ = scipy.linalg.lapack.dgecon(lu, anorm, norm="1")
         if not rcond >= SINGULAR_RCOND:
