@@ -124,3 +124,30 @@ def test_the_study_fits_every_trial_on_one_design(monkeypatch):
                        methods=("cs", "ls"), validation_points=20)
     results = run_trials(setup, setup.trials())
     assert len(results) == 3 and built == [5]
+
+
+def test_a_joint_effect_fit_keeps_one_design_across_its_solves(monkeypatch):
+    """The Gauss--Newton solves of identify.effects.joint fit on the same hysteron inputs: one operator."""
+    from identify import PreisachModel
+    from identify.effects import make_effect
+    from identify.effects.joint import fit_with_effects
+    from identify.runs import Run
+
+    built = []
+
+    class Counted(RegressorOperator):  # the designs' operators (the fit's own evaluator builds one more)
+        def __init__(self, *args, **kwargs):
+            built.append(1)
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(identify.design, "RegressorOperator", Counted)
+    grid = Grid(5, 0.0, 4.0)
+    rng = np.random.default_rng(3)
+    walk = np.cumsum(rng.normal(0.0, 0.7, 200)) % 8.0
+    v = np.where(walk > 4.0, 8.0 - walk, walk)
+    dwell = rng.choice([5.0, 10.0, 30.0], v.size)
+    truth = PreisachModel(grid, rng.uniform(0.1, 1.0, grid.n_cells), mu0=0.3, c_d=-0.4)
+    y = truth.predict(v) + 0.01 * np.sin(np.cumsum(dwell) / 300.0)
+    fit = fit_with_effects(grid, [Run("sim", v, y, np.cumsum(dwell), dwell, 4, 0.0)], "ls",
+                           [make_effect("creep")])
+    assert fit.info["solves"] > 1 and len(built) == 1
