@@ -19,6 +19,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -44,6 +45,11 @@ def choose_rows(n: int, m: int, seed: int | None, include: tuple[int, ...] = ())
     rng = np.random.default_rng(seed)
     rest = np.setdiff1d(np.arange(n), fixed)
     return np.sort(np.concatenate([fixed, rng.choice(rest, size=m - fixed.size, replace=False)]))
+
+
+def _of_design(name: str, doc: str) -> property:
+    """A read-only attribute of the problem that is its design's ``name``."""
+    return property(lambda self: getattr(self.design, name), doc=doc)
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,23 +112,14 @@ class Problem:
         thermal_term: bool = True,
         initial: InitialState = "negative",
         history: np.ndarray | None = None,
-        regressor: np.ndarray | None = None,
-        curves: np.ndarray | None = None,
-        extra: np.ndarray | None = None,
-        extra_nonneg: int = 0,
-        row_scale: np.ndarray | None = None,
-        penalty: np.ndarray | None = None,
-        penalty_target: np.ndarray | None = None,
+        **options: Any,
     ) -> "Problem":
         """A problem from the applied inputs (V) and the outputs (um) of every row, on a new design.
 
-        ``Problem.on(Design(grid, inputs, thermal_term, initial, history), outputs, ...)``;
-        see :meth:`on` for the other arguments.
+        ``Problem.on(Design(grid, inputs, thermal_term, initial, history), outputs, rows, **options)``:
+        ``options`` are :meth:`on`'s keywords (``regressor``, ``curves``, ``extra``, ...).
         """
-        design = Design(grid, inputs, thermal_term, initial, history)
-        return cls.on(design, outputs, rows, regressor=regressor, curves=curves, extra=extra,
-                      extra_nonneg=extra_nonneg, row_scale=row_scale, penalty=penalty,
-                      penalty_target=penalty_target)
+        return cls.on(Design(grid, inputs, thermal_term, initial, history), outputs, rows, **options)
 
     @classmethod
     def on(
@@ -209,28 +206,11 @@ class Problem:
                    extra, int(extra_nonneg) if extra is not None else 0, row_scale, penalty)
 
     # ---------------------------------------------------------- the design
-    @property
-    def grid(self) -> Grid:
-        return self.design.grid
-
-    @property
-    def inputs(self) -> np.ndarray:
-        """``(n,)`` the whole applied input sequence (V), read-only."""
-        return self.design.inputs
-
-    @property
-    def thermal_term(self) -> bool:
-        """Whether ``S`` has the ``c_d`` column."""
-        return self.design.thermal_term
-
-    @property
-    def initial(self) -> InitialState:
-        return self.design.initial
-
-    @property
-    def history(self) -> np.ndarray | None:
-        """The inputs (V) applied before the first one, after the ``initial`` saturation, or None."""
-        return self.design.history
+    grid = _of_design("grid", "The discretisation (:class:`~identify.grid.Grid`).")
+    inputs = _of_design("inputs", "``(n,)`` the whole applied input sequence (V), read-only.")
+    thermal_term = _of_design("thermal_term", "Whether ``S`` has the ``c_d`` column.")
+    initial = _of_design("initial", "The saturation before the first input (``negative`` or ``positive``).")
+    history = _of_design("history", "The inputs (V) applied after that saturation and before the first one, or None.")
 
     # ---------------------------------------------------------- dimensions
     @property
