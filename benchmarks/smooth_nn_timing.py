@@ -14,6 +14,7 @@ import argparse
 import numpy as np
 
 from identify import Grid, Problem, choose_rows, damped_oscillation, make_method
+from identify.design import Design
 from identify.profiles import profile
 from identify.regressor import regressor_matrix
 
@@ -25,14 +26,15 @@ def main() -> None:
     parser.add_argument("--problems", type=int, default=30)
     args = parser.parse_args()
     grid = Grid(args.levels, 0.0, 1.0)
-    v = damped_oscillation(grid)
+    design = Design(grid, damped_oscillation(grid), thermal_term=False)  # every problem's: one operator
+    v = design.inputs
     s = regressor_matrix(grid, v, thermal_term=False)
     problems = []
     for k in range(args.problems):
         rng = np.random.default_rng(k)
         y = s @ np.append(profile("random", grid, rng), 0.0) + rng.uniform(-5, 5, v.size)
         rows = choose_rows(v.size, args.measurements, k)
-        problems.append(Problem.build(grid, v, y, rows=rows, thermal_term=False, regressor=s))
+        problems.append(Problem.on(design, y, rows, regressor=s))
     times = {"ls": [], "smooth_nn": []}
     for name in times:
         make_method(name).fit(problems[0])  # warm caches (standard form of the penalty)

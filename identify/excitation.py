@@ -18,7 +18,11 @@ says "any value other than 0"; with exact signed areas that is not so.  We
 add one input *half a cell above the last point*: there the diagonal cell's
 signed area is quadratic in the input, the identity breaks and the matrix is
 invertible (checked for L = 1..60).  The thermal term is then identified
-through this one point, which makes ``c_d`` sensitive to noise on it.
+through this one point, which makes ``c_d`` sensitive to noise on it.  Other
+off-wall points (and points beyond the range, where the memory saturates and
+only ``c_d v`` changes) work too, as do other orderings of the oscillation:
+identification accepts any square design whose ``S`` is invertible, checked
+numerically (:mod:`identify.design`).
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .errors import IdentifyError
-from .excitation import damped_oscillation
+from .design import thermal_point_row
 from .grid import Grid
 from .memory import InitialState
 from .methods import Problem, choose_rows, make_method
@@ -50,14 +50,6 @@ class FitReport:
         return int(self.rows.size)
 
 
-def is_thermal_design(grid: Grid, inputs: np.ndarray) -> bool:
-    """Whether ``inputs`` is the damped oscillation plus the thermal point of ``grid``."""
-    expected = damped_oscillation(grid, thermal_term=True)
-    return inputs.shape == expected.shape and np.allclose(
-        inputs, expected, rtol=0, atol=1e-9 * (grid.v_max - grid.v_min)
-    )
-
-
 def measurement_rows(
     grid: Grid,
     inputs: np.ndarray,
@@ -70,15 +62,18 @@ def measurement_rows(
 
     ``candidates`` (sorted row indices; default: every row) are the rows that
     were measured, e.g. in a session whose compressive plan applied points
-    it did not measure.  With the thermal term on the damped-oscillation
-    design the thermal point is always among the chosen rows (when it is a
-    candidate): without it ``c_d`` is not identifiable.
+    it did not measure.  With the thermal term on a square design with a
+    thermal point (:func:`identify.design.thermal_point_row`: the damped
+    oscillation plus the thermal point, in any order, the thermal point
+    anywhere off the walls) the thermal point is always among the chosen
+    rows (when it is a candidate): without it ``c_d`` is not identifiable.
     """
     n = len(inputs)
     pool = np.arange(n) if candidates is None else np.asarray(candidates, dtype=np.int64)
     if measurements is None:
         return pool
-    include = np.flatnonzero(pool == n - 1) if thermal_term and is_thermal_design(grid, inputs) else ()
+    thermal = thermal_point_row(grid, inputs) if thermal_term else None
+    include = () if thermal is None else np.flatnonzero(pool == thermal)
     return pool[choose_rows(pool.size, measurements, seed, tuple(int(k) for k in include))]
 
 

@@ -94,6 +94,35 @@ class SquareSolver:
         """The explicit sparse ``S^{-1}``, shape ``(P, n)`` (see :func:`sparse_inverse`)."""
         return sparse_inverse(self)
 
+    def reciprocal_condition(self) -> tuple[float, np.ndarray]:
+        """``1 / (||S||_1 ||S^{-1}||_1)`` estimated from a few solves, and where ``S^{-1}`` is largest.
+
+        What LAPACK's ``dgecon`` does for a dense LU, without the dense
+        matrix.  ``||S||_1`` is exact: every signed area is in ``[-1, 1]``
+        and the bias column is all ones, so the largest column sum is ``n``,
+        or ``||v||_1`` (V) when the thermal column's is larger.
+        ``||S^{-1}||_1`` is Hager's estimate (scipy's ``onenormest`` with one
+        column: deterministic, about five solves with ``S`` and ``S^T``), a
+        lower bound, so the result is never below the true reciprocal
+        condition number (in our tests at most twice it, as ``dgecon``'s).
+        The vector returned, ``(P,)``, is the column of ``S^{-1}`` that
+        attains the estimate: when ``S`` is nearly singular it points along
+        the parameters that ``S`` cannot tell apart.
+        """
+        n = self.operator.shape[0]
+        norm = float(n)
+        if self.operator.thermal_term:
+            norm = max(norm, float(np.abs(self.operator.inputs).sum()))
+        inverse = scipy.sparse.linalg.LinearOperator(
+            (n, n), matvec=self.solve, rmatvec=self.solve_transpose,
+            matmat=self.solve, rmatmat=self.solve_transpose, dtype=float,
+        )
+        with np.errstate(all="ignore"):
+            estimate, _, column = scipy.sparse.linalg.onenormest(inverse, t=1, compute_v=True, compute_w=True)
+        if not np.isfinite(estimate) or estimate <= 0:
+            return 0.0, np.asarray(column, dtype=float)
+        return 1.0 / (norm * float(estimate)), np.asarray(column, dtype=float)
+
 
 def _prefix_adjoint_inverse(grid: Grid, g: np.ndarray) -> np.ndarray:
     """``x`` with ``prefix_sums_adjoint(grid, x) = g`` (mirrored four-point differences)."""

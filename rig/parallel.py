@@ -125,14 +125,17 @@ def run_parallel(
 
 
 @contextlib.contextmanager
-def worker_pool(context: multiprocessing.context.BaseContext, workers: int) -> Iterator[multiprocessing.pool.Pool]:
-    """A pool of ``workers`` processes of ``context``, started in :func:`worker_environment`.
+def worker_pool(context: multiprocessing.context.BaseContext, workers: int,
+                initializer: Callable[..., None] | None = None, initargs: tuple = ()
+                ) -> Iterator[multiprocessing.pool.Pool]:
+    """A pool of ``workers`` processes of ``context``, started in :func:`worker_environment`;
+    each worker runs ``initializer(*initargs)`` first, when given.
 
     An error or an interrupt (Ctrl-C) in the block terminates the workers at
     once; otherwise they are closed; either way they are joined.
     """
     with worker_environment():
-        pool = context.Pool(workers)
+        pool = context.Pool(workers, initializer, initargs)
     try:
         yield pool
     except BaseException:

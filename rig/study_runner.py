@@ -19,7 +19,7 @@ import scipy.fft  # noqa: F401
 import scipy.optimize  # noqa: F401
 from tqdm import tqdm
 
-from identify.study import StudySetup, TrialResult, run_trials
+from identify.study import StudyDesign, StudySetup, TrialResult, run_trials
 
 from .parallel import worker_pool
 
@@ -28,9 +28,19 @@ def _chunks(keys: list, workers: int) -> list[list]:
     return [keys[i : i + size] for i in range(0, len(keys), size)]
 
 
+#: The study design of this worker process (set by :func:`_start_worker`): all its trials fit on it,
+#: sharing the operator and square solver, as the trials of one process do.
+_worker_design: StudyDesign | None = None
+
+
+def _start_worker(levels: int) -> None:
+    global _worker_design
+    _worker_design = StudyDesign.of(levels)
+
+
 def _run_chunk(args: tuple[StudySetup, list]) -> list[TrialResult]:
     setup, keys = args
-    return run_trials(setup, keys)
+    return run_trials(setup, keys, _worker_design)
 
 
 def run_study(setup: StudySetup, workers: int, progress: bool = True) -> list[TrialResult]:
@@ -43,7 +53,7 @@ def run_study(setup: StudySetup, workers: int, progress: bool = True) -> list[Tr
     context = multiprocessing.get_context("spawn")
     with tqdm(total=len(keys), desc=f"study {setup.profile}", unit="run", dynamic_ncols=True,
               disable=None if progress else True) as bar:
-        with worker_pool(context, workers) as pool:
+        with worker_pool(context, workers, _start_worker, (setup.levels,)) as pool:
             for batch in pool.imap_unordered(_run_chunk, [(setup, c) for c in _chunks(keys, workers)]):
                 results.extend(batch)
                 bar.update(len(batch))

@@ -121,34 +121,3 @@ def test_operator_at_scale_is_cheap():
     assert op.increments.nnz < 5 * op.shape[0]
     w = np.random.default_rng(0).normal(size=op.shape[1])
     assert np.all(np.isfinite(op @ w))
-
-
-# ---------------------------------------------------------------- the design cache
-def test_design_cache_shares_the_operator_and_square_solver_of_one_design_only():
-    from identify import design_cache
-    from identify.methods.problem import Problem
-
-    grid = Grid(5, 0.0, 1.0)
-    v = damped_oscillation(grid, thermal_term=True)
-    y = np.linspace(0.0, 1.0, v.size)
-    design_cache.clear()
-    a = Problem.build(grid, v, y, rows=np.arange(0, v.size, 2))
-    b = Problem.build(grid, v.copy(), 2 * y, rows=np.arange(1, v.size, 3))
-    assert a.operator is b.operator and a.square_solver is b.square_solver
-    assert a.sparse_inverse is b.sparse_inverse
-    # any other design is built afresh: other inputs, thermal term, grid
-    other = v.copy()
-    other[3] += 1e-12
-    assert Problem.build(grid, other, y).operator is not a.operator
-    assert Problem.build(grid, v[:-1], y[:-1], thermal_term=False).operator is not a.operator
-    assert Problem.build(Grid(5, 0.0, 2.0), v, y).operator is not a.operator
-    # the cached inputs are a private read-only copy: changing the caller's array changes nothing
-    v[:] = 0.5
-    assert Problem.build(grid, damped_oscillation(grid, True), y).operator is a.operator
-    assert not a.operator.inputs.flags.writeable
-    # what a cached operator computes is what a fresh one does
-    w = np.random.default_rng(0).normal(size=a.n_parameters)
-    fresh = RegressorOperator(grid, damped_oscillation(grid, True), True)
-    np.testing.assert_array_equal(a.operator.matvec(w), fresh.matvec(w))
-    design_cache.clear()
-    assert Problem.build(grid, damped_oscillation(grid, True), y).operator is not a.operator

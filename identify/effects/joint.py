@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from ..design import Design
 from ..errors import IdentifyError, MethodNotApplicable
 from ..grid import Grid
 from ..methods import Problem, make_method
@@ -228,6 +229,8 @@ class _Fitter:
         #: A residual sum of squares at rounding level: the data are fitted exactly.
         self.exact = (1e-13 * float(np.max(np.abs(measured)))) ** 2 * measured.size
         self.hysteresis = _Hysteresis(grid)
+        #: The design of the last solve: the next reuses its operator while the hysterons' inputs stay put.
+        self.design: Design | None = None
 
     # ------------------------------------------------------------ one linear solve
     def solve(self, ctx: Context, effects: tuple[Effect, ...], settings: tuple[dict, ...], frozen: bool = False
@@ -287,8 +290,11 @@ class _Fitter:
             k_nonneg = int(np.sum(nonneg))
         else:
             extra, order, scale, k_nonneg, penalty, target = None, np.zeros(0, int), np.zeros(0), 0, None, None
-        problem = Problem.build(self.grid, x, outputs, st.rows, False, extra=extra, extra_nonneg=k_nonneg,
-                                row_scale=row_scale, penalty=penalty, penalty_target=target)
+        design = Design(self.grid, x, thermal_term=False)
+        if design != self.design:
+            self.design = design
+        problem = Problem.on(self.design, outputs, st.rows, extra=extra, extra_nonneg=k_nonneg,
+                             row_scale=row_scale, penalty=penalty, penalty_target=target)
         estimator = make_method(self.method, **self.method_settings)
         estimator.fit(problem)
         self.solves += 1

@@ -36,7 +36,7 @@ class Method(ABC):
 
     #: Name used by the command line and in reports.
     name: ClassVar[str]
-    #: Needs the square damped-oscillation design (``S`` invertible).
+    #: Needs a square design whose ``S`` is invertible (the damped oscillation, with a thermal point).
     needs_square: ClassVar[bool] = False
     #: Needs the order of all outputs (the 'CS Order' assumption).
     needs_order: ClassVar[bool] = False
@@ -63,9 +63,9 @@ class Method(ABC):
         start = time.perf_counter()
         if self.needs_square:
             try:
-                problem.require_square()  # raises MethodNotApplicable with the reason
-                if dense:
-                    problem.square_lu  # and the dense path checks S numerically
+                # square and invertible, checked numerically by the path that will solve with S;
+                # raises MethodNotApplicable with the reason
+                problem.require_square("dense" if dense else "fast")
             except MethodNotApplicable as exc:
                 raise MethodNotApplicable(f"{self.name} {exc}") from None
         if self.needs_order:

@@ -4,35 +4,35 @@ The whole applied input sequence defines the regressor ``S`` (every row's
 memory state depends on everything applied before it); only the rows in
 ``rows`` were measured (``A`` in equation (12) selects them).
 
-Nothing large is built up front.  ``operator`` (matrix-free ``S``,
-:mod:`identify.operators`) and, for the square damped-oscillation design,
-``square_solver`` / ``sparse_inverse`` (:mod:`identify.square`) are what the
-fast solvers use; the dense ``regressor`` and ``square_lu`` are built only
-when a dense (reference) path asks for them -- at L = 200 the dense ``S``
-would take 3.2 GB.
+What ``S`` depends on -- grid, inputs, thermal term, initial memory -- is
+the problem's :class:`~identify.design.Design`, which builds and owns the
+matrix-free ``operator`` (:mod:`identify.operators`) and, on a square
+design, the ``square_solver`` / ``sparse_inverse`` (:mod:`identify.square`)
+that the fast solvers use; problems built on one design
+(:meth:`Problem.on`) share them.  Nothing large is built up front: the dense
+``regressor`` and ``square_lu`` only when a dense (reference) path asks for
+them -- at L = 200 the dense ``S`` would take 3.2 GB.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import scipy.linalg
 import scipy.sparse
 from scipy.sparse.linalg import LinearOperator
 
+from ..design import SINGULAR_RCOND, Design
 from ..errors import IdentifyError, MethodNotApplicable
-from ..excitation import damped_oscillation
 from ..grid import Grid
 from ..memory import InitialState
-from .. import design_cache
 from ..operators import AugmentedOperator, RegressorOperator, RowScaledOperator
-from ..regressor import check_inputs, n_parameters, regressor_matrix
+from ..regressor import n_parameters, regressor_matrix
 from ..square import SquareSolver
-
-#: Reciprocal condition number below which a square design counts as singular.
-SINGULAR_RCOND = 1e-12
 
 
 def choose_rows(n: int, m: int, seed: int | None, include: tuple[int, ...] = ()) -> np.ndarray:
@@ -47,22 +47,26 @@ def choose_rows(n: int, m: int, seed: int | None, include: tuple[int, ...] = ())
     return np.sort(np.concatenate([fixed, rng.choice(rest, size=m - fixed.size, replace=False)]))
 
 
+def _of_design(name: str, doc: str) -> property:
+    """A read-only attribute of the problem that is its design's ``name``."""
+    return property(lambda self: getattr(self.design, name), doc=doc)
+
+
 @dataclass(frozen=True, eq=False)
 class Problem:
     """What every method gets.
 
     Attributes
     ----------
-    grid: the discretisation.
-    inputs: ``(n,)`` the whole applied input sequence (V).
-    thermal_term: whether ``S`` has the ``c_d`` column.
+    design: the :class:`~identify.design.Design` -- grid, the whole applied
+        input sequence, thermal term, initial memory -- that ``S`` depends
+        on; ``grid``, ``inputs`` ``(n,)`` (V), ``thermal_term``, ``initial``
+        and ``history`` read it.
     rows: ``(M,)`` sorted indices of the measured rows.
     measured: ``(M,)`` the outputs measured at ``rows`` (um).
     order: ``(n,)`` the permutation sorting all ``n`` outputs ascending,
         when all of them are known (needed by the ``cs_order`` methods), else
         ``None``.
-    initial, history: the memory before the first input (see
-        :func:`identify.regressor.initial_curve`).
     curves: ``(n,)`` the curve each applied row belongs to (-1: none), for
         inputs made of first-order reversal curves (needed by ``everett``),
         else ``None``.
@@ -81,19 +85,16 @@ class Problem:
         and are among ``rows`` (``measured`` there is ``penalty_target``, zeros
         by default), so ``n_rows = n + r``.
 
-    ``regressor`` (dense ``S``, ``(n, P)``) and ``operator`` (the same as a
-    matrix-free :class:`~identify.operators.RegressorOperator`) are built on
+    ``operator`` (``S`` as a matrix-free
+    :class:`~identify.operators.RegressorOperator`, the design's) and
+    ``regressor`` (the dense ``S``, ``(n, P)``, this problem's) are built on
     first use.
     """
 
-    grid: Grid
-    inputs: np.ndarray
-    thermal_term: bool
+    design: Design
     rows: np.ndarray
     measured: np.ndarray
     order: np.ndarray | None = None
-    initial: InitialState = "negative"
-    history: np.ndarray | None = None
     dense: np.ndarray | None = field(default=None, repr=False)
     curves: np.ndarray | None = None
     extra: np.ndarray | None = field(default=None, repr=False)
@@ -111,6 +112,22 @@ class Problem:
         thermal_term: bool = True,
         initial: InitialState = "negative",
         history: np.ndarray | None = None,
+        **options: Any,
+    ) -> "Problem":
+        """A problem from the applied inputs (V) and the outputs (um) of every row, on a new design.
+
+        ``Problem.on(Design(grid, inputs, thermal_term, initial, history), outputs, rows, **options)``:
+        ``options`` are :meth:`on`'s keywords (``regressor``, ``curves``, ``extra``, ...).
+        """
+        return cls.on(Design(grid, inputs, thermal_term, initial, history), outputs, rows, **options)
+
+    @classmethod
+    def on(
+        cls,
+        design: Design,
+        outputs: np.ndarray,
+        rows: np.ndarray | None = None,
+        *,
         regressor: np.ndarray | None = None,
         curves: np.ndarray | None = None,
         extra: np.ndarray | None = None,
@@ -119,18 +136,20 @@ class Problem:
         penalty: np.ndarray | None = None,
         penalty_target: np.ndarray | None = None,
     ) -> "Problem":
-        """A problem from the applied inputs (V) and the outputs (um) of every row.
+        """A problem on ``design`` from the outputs (um) of its ``n`` applied inputs.
 
-        ``outputs`` may hold NaN at rows that were not measured; ``rows``
-        defaults to every row with a finite output.  When every output is
-        known, ``order`` is their ascending sort (the paper's assumption for
-        'CS Order').  ``regressor`` (the dense ``S``) may be passed when
-        already computed; otherwise nothing is built until a method asks.
-        ``curves`` ``(n,)`` numbers the curve of every applied row (-1: none).
-        ``extra`` ``(n, k)`` are extra columns fitted jointly (see the class
-        doc), the first ``extra_nonneg`` of them with coefficients >= 0.
+        Problems on one design share its operator and square solver (built
+        once, on first use).  ``outputs`` ``(n,)`` may hold NaN at rows that
+        were not measured; ``rows`` defaults to every row with a finite
+        output.  When every output is known, ``order`` is their ascending
+        sort (the paper's assumption for 'CS Order').  ``regressor`` (the
+        dense ``S``) may be passed when already computed; otherwise nothing
+        is built until a method asks.  ``curves`` ``(n,)`` numbers the curve
+        of every applied row (-1: none).  ``extra`` ``(n, k)`` are extra
+        columns fitted jointly (see the class doc), the first
+        ``extra_nonneg`` of them with coefficients >= 0.
         """
-        v = check_inputs(inputs)
+        v = design.inputs
         y = np.asarray(outputs, dtype=float)
         if y.shape != v.shape:
             raise IdentifyError(
@@ -150,10 +169,8 @@ class Problem:
         if not np.all(known[rows]):
             bad = rows[~known[rows]][0]
             raise IdentifyError(f"output of measured row {bad} is not finite")
-        if regressor is not None and regressor.shape != (v.size, n_parameters(grid, thermal_term)):
+        if regressor is not None and regressor.shape != (v.size, design.n_parameters):
             raise IdentifyError("regressor shape does not match the inputs and grid")
-        if history is not None:
-            history = check_inputs(history, "history input")
         if curves is not None:
             curves = np.asarray(curves)
             if curves.shape != v.shape or (curves.size and not np.issubdtype(curves.dtype, np.integer)):
@@ -185,8 +202,15 @@ class Problem:
                 raise IdentifyError("the penalty target needs one value per penalty row")
             measured = np.concatenate([measured, target])
             order = None
-        return cls(grid, v, thermal_term, rows, measured, order, initial, history, regressor, curves,
+        return cls(design, rows, measured, order, regressor, curves,
                    extra, int(extra_nonneg) if extra is not None else 0, row_scale, penalty)
+
+    # ---------------------------------------------------------- the design
+    grid = _of_design("grid", "The discretisation (:class:`~identify.grid.Grid`).")
+    inputs = _of_design("inputs", "``(n,)`` the whole applied input sequence (V), read-only.")
+    thermal_term = _of_design("thermal_term", "Whether ``S`` has the ``c_d`` column.")
+    initial = _of_design("initial", "The saturation before the first input (``negative`` or ``positive``).")
+    history = _of_design("history", "The inputs (V) applied after that saturation and before the first one, or None.")
 
     # ---------------------------------------------------------- dimensions
     @property
@@ -236,13 +260,11 @@ class Problem:
 
         ``O(n + L^2)`` per product and in memory (:mod:`identify.operators`);
         ``operator.rows(problem.rows)`` is ``A S``.  Solvers that only need
-        products use this, so they scale to large L.  Problems on the same
-        design (grid, inputs, thermal term, initial memory) share one
-        operator (:mod:`identify.design_cache`).
+        products use this, so they scale to large L.  It is the design's
+        operator (shared by the problems on the design), augmented with the
+        extra columns and row scale when there are any.
         """
-        base = design_cache.regressor_operator(
-            self.grid, self.inputs, self.thermal_term, self.initial, self.history
-        )
+        base = self.design.operator
         op = base if self.extra is None else AugmentedOperator(base, self.extra, self.extra_nonneg, self.penalty)
         if self.row_scale is None:
             return op
@@ -273,73 +295,66 @@ class Problem:
         return self.operator.matvec(np.asarray(w, dtype=float))
 
     # ---------------------------------------------------------- square design
-    def require_square(self) -> None:
-        """Raise :class:`MethodNotApplicable` unless this is the square damped-oscillation design.
+    def require_square(self, solver: str = "fast") -> None:
+        """Raise :class:`MethodNotApplicable` with the reason unless ``S`` is square and invertible.
 
-        The applied input must be the damped oscillation of this grid (with
-        the thermal point when the thermal term is on), so that ``S`` is
-        square and invertible (Proposition 1).
+        Any square design whose ``S`` is invertible will do -- the damped
+        oscillation in any order, the thermal point anywhere that keeps
+        ``S`` invertible -- checked numerically by the path that will solve
+        with ``S``: the design's sparse factorisation (``solver="fast"``) or
+        this problem's dense LU (``"dense"``, :attr:`square_lu`); see
+        :mod:`identify.design`.
         """
-        L = self.grid.levels
-        P = self.n_parameters
+        if solver == "dense":
+            self.square_lu
+        else:
+            self._require_square_kind()
+            self.design.square_solver
+
+    def _require_square_kind(self) -> None:
+        """Refuse extra columns and FORC data before anything else, saying what to use instead."""
         if self.extra is not None:
             raise MethodNotApplicable(
                 f"cannot fit effects jointly: it needs the square damped-oscillation design, which has exactly "
                 f"as many inputs as equation (22) has parameters and no room for the {self.n_extra} effect "
                 "term(s); use ls or smooth_nn"
             )
-        design = "damped oscillation" + (" plus the thermal point" if self.thermal_term else "")
         if self.curves is not None and np.any(self.curves >= 0):
+            design = "damped oscillation" + (" plus the thermal point" if self.thermal_term else "")
             raise MethodNotApplicable(
                 f"does not apply to FORC data (first-order reversal curves): it needs the square {design} "
-                f"design of the grid, {P} applied inputs on its walls for L={L}; use ls, smooth_nn or everett"
-            )
-        if self.n != P:
-            raise MethodNotApplicable(
-                f"needs the square {design} design: {P} applied inputs for L={L}, got {self.n}"
-            )
-        on_walls = self.grid.on_walls(self.inputs)
-        if self.thermal_term:
-            on_walls[-1] = True  # the thermal point is off-wall by design
-        if not np.all(on_walls):
-            k = int(np.flatnonzero(~on_walls)[0])
-            raise MethodNotApplicable(
-                f"input {k} ({self.inputs[k]:.6g}) is not on a wall of the {L}-level grid "
-                f"on [{self.grid.v_min:g}, {self.grid.v_max:g}]; the {design} sits on the walls"
-            )
-        expected = damped_oscillation(self.grid, self.thermal_term)
-        tol = 1e-9 * (self.grid.v_max - self.grid.v_min)
-        if not np.allclose(self.inputs, expected, rtol=0, atol=tol):
-            k = int(np.flatnonzero(~np.isclose(self.inputs, expected, rtol=0, atol=tol))[0])
-            raise MethodNotApplicable(
-                f"input {k} ({self.inputs[k]:.6g}) differs from the {design} "
-                f"({expected[k]:.6g}) of this grid"
+                f"design of the grid, {self.n_parameters} applied inputs on its walls for "
+                f"L={self.grid.levels}; use ls, smooth_nn or everett"
             )
 
     @cached_property
     def square_lu(self) -> tuple[np.ndarray, np.ndarray]:
         """Dense LU factors of the square ``S`` (the dense reference path).
 
-        Raises :class:`MethodNotApplicable` unless the design is square
-        (:meth:`require_square`) and ``S`` is numerically invertible.
+        Raises :class:`MethodNotApplicable` unless the design is square and
+        ``S`` is numerically invertible (reciprocal condition number by
+        LAPACK's ``dgecon`` at least :data:`identify.design.SINGULAR_RCOND`).
         """
-        self.require_square()
-        lu, piv = scipy.linalg.lu_factor(self.regressor, check_finite=False)
+        self._require_square_kind()
+        self.design.require_square_shape()
+        with warnings.catch_warnings():  # an exactly singular S is refused below, with the reason
+            warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+            lu, piv = scipy.linalg.lu_factor(self.regressor, check_finite=False)
         anorm = np.abs(self.regressor).sum(axis=0).max()
         rcond, _ = scipy.linalg.lapack.dgecon(lu, anorm, norm="1")
-        if rcond < SINGULAR_RCOND:
-            raise MethodNotApplicable(f"the square design matrix S is singular (rcond {rcond:.1e})")
+        if not rcond >= SINGULAR_RCOND:
+            raise MethodNotApplicable(self.design.singular_reason(float(rcond)))
         return lu, piv
 
-    @cached_property
+    @property
     def square_solver(self) -> SquareSolver:
         """Sparse factorisation of the square design (:class:`~identify.square.SquareSolver`).
 
-        Shared, with its sparse ``S^{-1}``, by the problems on the same design
-        (:mod:`identify.design_cache`).
+        The design's: shared, with its sparse ``S^{-1}``, by the problems on
+        the same design.  Raises like :meth:`require_square`.
         """
-        self.require_square()
-        return design_cache.square_solver(self.operator)
+        self._require_square_kind()
+        return self.design.square_solver
 
     @property
     def sparse_inverse(self) -> scipy.sparse.csr_array:
@@ -349,8 +364,8 @@ class Problem:
     def solve_square(self, outputs: np.ndarray, solver: str = "fast") -> np.ndarray:
         """``w = S^{-1} b`` for a full output vector ``b`` of length ``n``.
 
-        ``solver="fast"`` uses the sparse factorisation, ``"dense"`` the
-        dense LU of ``S``.
+        ``solver="fast"`` uses the design's sparse factorisation, ``"dense"``
+        the dense LU of ``S``.
         """
         if solver == "dense":
             return scipy.linalg.lu_solve(self.square_lu, outputs, check_finite=False)

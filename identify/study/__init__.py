@@ -14,7 +14,7 @@ Running the trials in parallel, printing and plotting belong to
 from .paper import PAPER, Finding, findings
 from .setup import StudySetup, default_noise_sweep, default_measurement_sweep
 from .summary import MethodSummary, PointSummary, StudySummary, summarise
-from .trial import METRICS, TrialResult, dct_example, run_trial, run_trials
+from .trial import METRICS, StudyDesign, TrialResult, dct_example, run_trial, run_trials
 
 __all__ = [
     "METRICS",
@@ -22,6 +22,7 @@ __all__ = [
     "Finding",
     "MethodSummary",
     "PointSummary",
+    "StudyDesign",
     "StudySetup",
     "StudySummary",
     "TrialResult",

@@ -26,10 +26,10 @@ Metrics per method (:data:`METRICS`):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
+from ..design import Design
 from ..errors import IdentifyError
 from ..excitation import damped_oscillation, random_input
 from ..grid import Grid
@@ -59,13 +59,38 @@ class TrialResult:
     sparsity: Sparsity
 
 
-@lru_cache(maxsize=4)
-def _design(levels: int) -> tuple[Grid, np.ndarray, np.ndarray]:
-    grid = Grid(levels, 0.0, 1.0)
-    v = damped_oscillation(grid, thermal_term=False)
-    s = regressor_matrix(grid, v, thermal_term=False)
-    s.flags.writeable = False
-    return grid, v, s
+@dataclass(frozen=True, eq=False)
+class StudyDesign:
+    """The study's identification design at one L: the damped oscillation on ``[0, 1]`` without the
+    thermal term, as the :class:`~identify.design.Design` whose operator and square solver every fit
+    on it shares, and its dense ``S`` ``(N, N)`` (read-only), which the metrics use.
+
+    Build it once and pass it to every :func:`run_trial` (a worker process of ``rig study`` builds
+    one for all its trials); a trial without one builds its own.
+    """
+
+    design: Design
+    regressor: np.ndarray
+
+    @classmethod
+    def of(cls, levels: int) -> "StudyDesign":
+        grid = Grid(levels, 0.0, 1.0)
+        design = Design(grid, damped_oscillation(grid, thermal_term=False), thermal_term=False)
+        s = regressor_matrix(grid, design.inputs, thermal_term=False)
+        s.flags.writeable = False
+        return cls(design, s)
+
+    @property
+    def grid(self) -> Grid:
+        return self.design.grid
+
+
+def _study_design(setup: StudySetup, design: StudyDesign | None) -> StudyDesign:
+    if design is None:
+        return StudyDesign.of(setup.levels)
+    if design.grid != setup.grid:
+        raise IdentifyError(f"the study design is for L={design.grid.levels}, the setup for L={setup.levels}")
+    return design
 
 
 def _truth(setup: StudySetup, run: int):
@@ -85,14 +110,17 @@ def _rows(setup: StudySetup, measurements: int, run: int) -> np.ndarray:
 
 def dct_example(setup: StudySetup, run: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """``(q, q_order)`` of the true outputs of run ``run`` (figure 3a, 3b)."""
-    _, _, s = _design(setup.levels)
+    s = StudyDesign.of(setup.levels).regressor
     weights, _, _ = _truth(setup, run)
     return dct_pair(s @ np.append(weights, 0.0))
 
 
-def run_trial(setup: StudySetup, measurements: int, noise: float, run: int) -> TrialResult:
-    """Simulate run ``run`` at ``(M, D)`` and identify it with every method of ``setup``."""
-    grid, v, s = _design(setup.levels)
+def run_trial(setup: StudySetup, measurements: int, noise: float, run: int,
+              design: StudyDesign | None = None) -> TrialResult:
+    """Simulate run ``run`` at ``(M, D)`` and identify it with every method of ``setup``, on ``design``
+    (:class:`StudyDesign` at ``setup.levels``; built here when not given)."""
+    study = _study_design(setup, design)
+    grid, s = study.grid, study.regressor
     weights, shape, v_val = _truth(setup, run)
     w_true = np.append(weights, 0.0)  # mu0 = 0
     y_true = s @ w_true
@@ -100,10 +128,7 @@ def run_trial(setup: StudySetup, measurements: int, noise: float, run: int) -> T
     s_val = regressor_matrix(grid, v_val, thermal_term=False)
     y_val = s_val @ w_true
     span_val = output_range(y_val)
-    problem = Problem.build(
-        grid, v, y_true + noise * shape, rows=_rows(setup, measurements, run),
-        thermal_term=False, regressor=s,
-    )
+    problem = Problem.on(study.design, y_true + noise * shape, _rows(setup, measurements, run), regressor=s)
     metrics: dict[str, np.ndarray] = {}
     errors: dict[str, str] = {}
     for name in setup.methods:
@@ -125,6 +150,9 @@ def run_trial(setup: StudySetup, measurements: int, noise: float, run: int) -> T
     return TrialResult(measurements, float(noise), run, metrics, errors, sparsity(y_true))
 
 
-def run_trials(setup: StudySetup, keys: list[tuple[int, float, int]]) -> list[TrialResult]:
-    """:func:`run_trial` for each ``(M, D, run)`` in ``keys`` (one task of a process pool)."""
-    return [run_trial(setup, m, d, r) for (m, d, r) in keys]
+def run_trials(setup: StudySetup, keys: list[tuple[int, float, int]],
+               design: StudyDesign | None = None) -> list[TrialResult]:
+    """:func:`run_trial` for each ``(M, D, run)`` in ``keys`` (one task of a process pool), all on
+    ``design`` (built once here when not given)."""
+    study = _study_design(setup, design)
+    return [run_trial(setup, m, d, r, study) for (m, d, r) in keys]
