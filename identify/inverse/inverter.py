@@ -108,7 +108,8 @@ class Inverter:
     model: a :class:`~identify.model.PreisachModel` (with its fitted effects).
     domain: ``(lo, hi)`` (V), the set-points allowed (default: the grid's range; must lie inside it).
     run_name: the name of the run being inverted (per-run effects of other runs are unknown on it).
-    initial_V: the set-point before the first target (V); the memory starts at negative saturation.
+    initial_V: the set-point before the first target (V), held until at rest; the memory has risen to it
+        from negative saturation (the sequencer saturates at 0 V before a run).
 
     Raises :class:`NotInvertible` for a model this inversion cannot invert exactly.
     """
@@ -138,7 +139,8 @@ class Inverter:
         self.path = PreisachPath(grid, model.density, MemoryCurve(grid.levels))
         self._h, self._v0 = grid.step, grid.v_min
         self.v = float(initial_V)
-        self.x = grid.v_min  # the hysterons' input (V): negative saturation
+        self.x = max(self.v, grid.v_min)  # the hysterons' input (V): risen to the set-point from negative saturation
+        self.path.apply(self._coordinate(self.x))
         self._theta = self.v
         self._deflection = model.mu0 + model.c_d * self.v + self.path.value
         self._history: dict[str, list[float]] = {"v": [], "t": [], "dwell": [], "u": [], "phase": []}
