@@ -50,6 +50,8 @@ from .roots import closest_to_zero, roots_between
 
 #: Two candidate voltages this close (relative to the grid's span) are equally near the previous one.
 TIE = 1e-12
+#: The output effects' terms at a step when there are none: per direction (offset, gU, gP).
+_NO_OFFSETS = {True: (0.0, 0.0, 0.0), False: (0.0, 0.0, 0.0)}
 #: A predicted output within this (relative to the model's output scale) of the target reaches it.
 REACHED = 1e-9
 
@@ -85,7 +87,7 @@ class InverseResult:
         return int(np.count_nonzero(~self.reachable))
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class _Frame:
     """What one step needs: the deflection ``u`` to reach (um, after the sensor map is inverted); the
     hysterons' input range ``(lo, hi)`` (V); the thermal term's input ``theta = theta0 + x``; per direction
@@ -187,7 +189,7 @@ class Inverter:
             lo_x, hi_x = lo + shift, hi + shift
         g = self.grid
         lo_x, hi_x = max(lo_x, g.v_min), min(hi_x, g.v_max)
-        offsets = self._offsets(t_s, dwell_s) if self.plan.offsets else {True: (0.0, 0.0, 0.0), False: (0.0, 0.0, 0.0)}
+        offsets = self._offsets(t_s, dwell_s) if self.plan.offsets else _NO_OFFSETS
         return _Frame(u, lo_x, hi_x, -shift, offsets, lag)
 
     def _to_v(self, frame: _Frame, x: float) -> float:
@@ -223,16 +225,19 @@ class Inverter:
         return out
 
     # ------------------------------------------------------------ the search
-    def _pieces(self, frame: _Frame, up: bool):
-        """``(start, end, cell, residual)`` of the move in one direction, nearest first: the residual (the
-        output minus the deflection to reach, um) as coefficients in ``f = x - cell`` (grid coordinates)."""
-        m, h, v0 = self.model, self._h, self._v0
+    def _transform(self, frame: _Frame, up: bool) -> tuple[float, float, float]:
+        """``(const, slope, kp)``: on a piece of cell ``cell`` with Preisach part ``p0 + p1 f + p2 f^2`` the
+        residual (output minus the deflection to reach, um) is ``const + slope cell + kp p0 + (slope + kp p1) f
+        + kp p2 f^2`` (plus the static effects' polynomial), ``f = x - cell`` in grid coordinates."""
+        m = self.model
         alpha, g_u, g_p = frame.offsets[up]
         k1 = 1.0 + g_u
-        kp = k1 + g_p
-        const = k1 * (m.mu0 + m.c_d * (frame.theta0 + v0)) + alpha - frame.u
-        slope = k1 * m.c_d * h
-        end = ((frame.hi if up else frame.lo) - v0) / h
+        return (k1 * (m.mu0 + m.c_d * (frame.theta0 + self._v0)) + alpha - frame.u, k1 * m.c_d * self._h, k1 + g_p)
+
+    def _pieces(self, frame: _Frame, up: bool):
+        """``(start, end, cell, residual coefficients)`` of the move in one direction, nearest first."""
+        const, slope, kp = self._transform(frame, up)
+        end = ((frame.hi if up else frame.lo) - self._v0) / self._h
         st = self.static
         for s, e, cell, p0, p1, p2 in self.path.pieces(up, end):
             c = [const + slope * cell + kp * p0, slope + kp * p1, kp * p2]
@@ -251,10 +256,21 @@ class Inverter:
 
     def _search(self, frame: _Frame) -> tuple[float, bool, float]:
         """``(x, reachable, residual)``: the hysterons' input (V) chosen by the rule, whether it reaches the
-        target, and the output minus the target there (um; 0 when reachable)."""
+        target, and the output minus the target there (um; 0 when reachable).
+
+        The two moves are scanned piece by piece, always the one whose next piece starts nearer the previous
+        voltage, until a root is found in each or the other's pieces start farther than the best root."""
         h, v0, v_now, tie = self._h, self._v0, self.v, self._tie
+        lo_v, hi_v = self.lo, self.hi
         to_v = self._to_v
-        gens = (self._pieces(frame, True), self._pieces(frame, False))
+        plain = self.static is None  # the residual is a quadratic on every piece: the fast path
+        if plain:
+            gens = (self.path.pieces(True, (frame.hi - v0) / h), self.path.pieces(False, (frame.lo - v0) / h))
+            tf = (self._transform(frame, True), self._transform(frame, False))
+        else:
+            gens = (self._pieces(frame, True), self._pieces(frame, False))
+        shifted = frame.lag is None  # the set-point is the hysterons' input shifted: distances without to_v
+        th0 = frame.theta0
         nxt = [next(gens[0], None), next(gens[1], None)]
         dist = [0.0 if p is not None else math.inf for p in nxt]  # both moves start at the present input
         best: tuple[float, float, float] | None = None  # (distance, |v|, x)
@@ -263,10 +279,28 @@ class Inverter:
             d = 0 if dist[0] <= dist[1] else 1
             if dist[d] == math.inf or (best is not None and dist[d] > best[0] + tie):
                 break
-            s, e, cell, c = nxt[d]
+            piece = nxt[d]
             up = d == 0
+            if plain:
+                s, e, cell, p0, p1, p2 = piece
+                const, slope, kp = tf[d]
+                c0, c1, c2 = const + slope * cell + kp * p0, slope + kp * p1, kp * p2
+                c = (c0, c1, c2)
+            else:
+                s, e, cell, c = piece
             lo, hi = (s - cell, e - cell) if up else (e - cell, s - cell)
-            if _may_vanish(c, lo, hi):
+            if plain:  # a root only where the quadratic changes sign: at the ends, or at its vertex
+                a = c0 + lo * (c1 + lo * c2)
+                b = c0 + hi * (c1 + hi * c2)
+                maybe = a == 0.0 or b == 0.0 or (a < 0.0) != (b < 0.0)
+                if not maybe and c2 != 0.0:
+                    f = -0.5 * c1 / c2
+                    if lo < f < hi:
+                        r = c0 + f * (c1 + f * c2)
+                        maybe = (r < 0.0) != (a < 0.0) or abs(r) <= 1e-12 * (abs(c0) + abs(c1) + abs(c2))
+            else:
+                maybe = True
+            if maybe:
                 roots = roots_between(c, lo, hi)
                 if roots:
                     x = v0 + h * (cell + (roots[0] if up else roots[-1]))
@@ -279,7 +313,13 @@ class Inverter:
             if best is None:
                 missed.append((c, lo, hi, cell))
             p = nxt[d] = next(gens[d], None)
-            dist[d] = math.inf if p is None else abs(to_v(frame, v0 + h * p[0]) - v_now)
+            if p is None:
+                dist[d] = math.inf
+            elif shifted:
+                v = v0 + h * p[0] + th0
+                dist[d] = abs((lo_v if v < lo_v else hi_v if v > hi_v else v) - v_now)
+            else:
+                dist[d] = abs(to_v(frame, v0 + h * p[0]) - v_now)
         if best is not None:
             return best[2], True, 0.0
         closest: tuple[float, float, float, float] | None = None  # (|r|, distance, |v|, x)
@@ -314,13 +354,13 @@ class Inverter:
         deflection = u22
         if self.static is not None:
             deflection += self.static.at(self._coordinate(v))
-        h = self._history
-        h["v"].append(v)
-        h["t"].append(float(t_s))
-        h["dwell"].append(float(dwell_s))
-        h["u"].append(u22)
-        h["phase"].append(p)
-        if self.plan.offsets:
+        if self.plan.offsets:  # the history the offsets are read from
+            h = self._history
+            h["v"].append(v)
+            h["t"].append(float(t_s))
+            h["dwell"].append(float(dwell_s))
+            h["u"].append(u22)
+            h["phase"].append(p)
             run = probe_run(self.run_name, h["v"], h["t"], h["dwell"])
             for e in self.plan.offsets:
                 deflection += float(e.contribution(run, np.asarray(h["u"]), np.asarray(h["phase"]))[-1])
@@ -395,25 +435,6 @@ class Inverter:
         sense = self.sensor.sense
         return float(brentq(lambda z: float(sense(np.asarray([z]))[0]) - y, u[k - 1], u[k], xtol=1e-14 * self.scale,
                             rtol=4 * np.finfo(float).eps))
-
-
-def _may_vanish(c: list[float], lo: float, hi: float) -> bool:
-    """Whether the polynomial ``c`` may have a root on ``[lo, hi]`` (a quick exact test for quadratics: a sign
-    change between the ends or at the vertex; higher degrees always may)."""
-    if len(c) != 3:
-        return True
-    c0, c1, c2 = c
-    a = c0 + lo * (c1 + lo * c2)
-    b = c0 + hi * (c1 + hi * c2)
-    if a == 0.0 or b == 0.0 or (a < 0.0) != (b < 0.0):
-        return True
-    if c2 == 0.0:
-        return False
-    f = -0.5 * c1 / c2
-    if not lo < f < hi:
-        return False
-    r = c0 + f * (c1 + f * c2)
-    return r == 0.0 or (r < 0.0) != (a < 0.0) or abs(r) <= 1e-12 * (abs(c0) + abs(c1) + abs(c2))
 
 
 def invert(model, targets, t_s=None, dwell_s=None, *, domain: tuple[float, float] | None = None,

@@ -136,12 +136,13 @@ class PreisachPath:
         a, b = self.curve.tail(0)
         t, c, L = self._t, self._c, self.levels
         s = self.curve.position
+        n = len(b)
         k = 0
-        while k < len(b) and b[k] < s:
+        while k < n and b[k] < s:
             k += 1
         base_k, base = -1, 0.0
         while s > end:
-            if s <= 0.0 or k >= len(a):
+            if s <= 0.0 or k >= n:
                 yield s, end, 0, -self.total, 0.0, 0.0
                 return
             j = math.ceil(s) - 1
