@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .csvtrace import read_csv_rows
+from .csvtrace import read_with_header
 from .errors import DataFileError
 from .textfiles import finite_number
 
@@ -54,12 +54,7 @@ class Targets:
 def read_targets(path: str | os.PathLike) -> Targets:
     """Read a target file; :class:`DataFileError` naming the line and the problem otherwise."""
     path = Path(path)
-    rows = read_csv_rows(path)
-    if not rows:
-        raise DataFileError(f"{path}: empty file, expected the header {','.join(HEADER)}")
-    header = tuple(c.strip() for c in rows[0])
-    if header != HEADER:
-        raise DataFileError(f"{path}: line 1: expected the header {','.join(HEADER)}, got {','.join(header)}")
+    rows = read_with_header(path, HEADER)
     while len(rows) > 1 and not any(c.strip() for c in rows[-1]):
         rows.pop()  # blank lines at the end of the file
     t, y = [], []
