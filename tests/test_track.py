@@ -242,6 +242,29 @@ def test_a_resumed_tracking_run_continues_exactly_as_an_uninterrupted_one(tmp_pa
     assert abs(e[-6:]).max() < 0.5 * abs(e[:3]).max()  # and it learned
 
 
+def test_rig_track_resume_continues_an_interrupted_run_from_the_command_line(tmp_path):
+    model_path, model = true_model(tmp_path)
+    src, plan = _plan(model_path, tmp_path, "pi")
+    cut = tmp_path / "cut.h5"
+    with open_rig(default_config()) as rig:
+        def inject(result):
+            if result.index == 5:
+                rig.device.faults.nan_readings = 100
+
+        with pytest.raises(SensorError):
+            acquire(rig, plan.record, cut, settings=plan.settings, hooks=Hooks(on_sample=inject),
+                    setpoints=setpoints_for(plan, model, "cut"), sample_columns=TRACKING_COLUMNS,
+                    models=(src.record,))
+    assert_one_line_error(rig_here("track", "--resume", cut, "--feedback", "ilc"), "--feedback cannot be used")
+    r = rig_here("track", "--resume", cut, "--json", "--no-progress")  # on the rig configuration it stored
+    assert r.code == 0, r.err
+    res = r.json()
+    assert res["status"] == "complete" and res["n"] == 24 and res["feedback"] == "pi"
+    assert res["rmse_um"] <= 3 * SIGMA
+    s = read_session(cut)
+    assert [e.event for e in s.events][-4:] == ["reopened", "saturated", "replayed", "complete"]
+
+
 # ---------------------------------------------------------------- over Modbus, against rig serve-sim
 SERVED = dict(time_constant_s=0.002, psd_noise_V=0.0005)
 
