@@ -7,24 +7,24 @@ be inverted exactly when, at the step being solved, it adds a polynomial of
 ``x`` on each piece or maps ``x`` to ``v`` in closed form (see
 :mod:`identify.effects.base` for the stages):
 
-=====================  ========================================================================
-``reversible``,        a function of the set-point alone, a polynomial between its breakpoints
-``joule_power``        (degree 1 between knots; ``a v^2 + b v^4``): added to each piece's
-                       polynomial.  Fitted once from :meth:`Effect.contribution` and checked.
-``creep``,             depends on the history and on the time: at the step it is a known offset
-``baseline_drift``     for each direction of the move (and, driven by the output, affine in this
-                       step's output), read from :meth:`Effect.contribution` on the history plus
-                       the candidate point.  A drift fitted on other runs contributes nothing.
-``thermal_lag``        the beam is read short of its set-point: ``x^2 = A + B v^2`` (power drive;
-                       ``x = A + B v`` for voltage) with ``A``, ``B`` known from the slow modes'
-                       states and the step's dwell, so ``v`` has a closed form; the thermal term
-                       follows ``x``.
-``interaction``        (voltage drive, felt output) ``x = v + k u`` with ``u`` the target: find
-                       ``x`` for the target, then ``v = x - k u``.
-``ambient_drift``      a drift of the runs it was fitted on; on a new run it is unknown and
-                       changes nothing.
-``sensor_nonlinearity`` the reading of a deflection: a monotone map, inverted first.
-=====================  ========================================================================
+=======================  ======================================================================
+``reversible``,          a function of the set-point alone, a polynomial between its breakpoints
+``joule_power``          (degree 1 between knots; ``a v^2 + b v^4``): added to each piece's
+                         polynomial.  Fitted once from :meth:`Effect.contribution` and checked.
+``creep``                depends on the history and on the time: at the step it is a known
+                         offset for each direction of the move (and, driven by the output,
+                         affine in this step's output), read from :meth:`Effect.contribution`
+                         on the history plus the candidate point.
+``thermal_lag``          the beam is read short of its set-point: ``x^2 = A + B v^2`` (power
+                         drive; ``x = A + B v`` for voltage) with ``A``, ``B`` known from the
+                         slow modes' states and the step's dwell, so ``v`` has a closed form;
+                         the thermal term follows ``x``.
+``interaction``          (voltage drive, felt output) ``x = v + k u`` with ``u`` the target:
+                         find ``x`` for the target, then ``v = x - k u``.
+``baseline_drift``,      drifts of the runs they were fitted on: on a new run unknown, they
+``ambient_drift``        change nothing (fitted on a run of the inverted run's name: refused).
+``sensor_nonlinearity``  the reading of a deflection: a monotone map, inverted first.
+=======================  ======================================================================
 
 Refused (:class:`NotInvertible`, one line): ``first_point`` (its offset
 after a turn grows with the reversing step through a saturating

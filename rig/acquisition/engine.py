@@ -24,6 +24,12 @@ of the plan:
    (:meth:`sessions.SessionWriter.append`): every applied point gets one,
    unmeasured ones with output NaN.
 
+A tracking run (``rig track``) gives the sequencer a
+:class:`~rig.acquisition.setpoints.SetpointSource`: step 2 then applies the
+set-point it computes from the memory state and the measurements so far
+(instead of the plan's input), and step 6 records the extra columns it
+returns with the row.
+
 ``t_s`` is the time on the rig's clock since the first set-point of the
 run; ``dwell_s`` is the time from applying the set-point to the start of
 its readings (pauses included: the heater was held at the set-point).
