@@ -6,7 +6,8 @@
 * :mod:`sessions.reader` -- :func:`read_session` and :class:`SessionFollower` (live);
 * :mod:`sessions.rewrite` -- changing an existing session (adding a model) atomically;
 * :mod:`sessions.models` -- identified models stored under ``/models/<name>``;
-* :mod:`sessions.convert` -- CSV traces to sessions and back.
+* :mod:`sessions.convert` -- CSV traces to sessions and back;
+* :mod:`sessions.targets` -- target files ``t_s,target_um`` and ``rig invert``'s set-point files.
 """
 
 from .csvtrace import HEADER, Trace, read_trace, write_trace
@@ -15,12 +16,13 @@ from .models import ModelRecord
 from .reader import Session, SessionFollower, is_hdf5, read_session
 from .records import Event, ExcitationRecord, Quantities
 from .rewrite import add_model
-from .schema import SCHEMA_VERSION, SampleFlag, Status
+from .schema import SCHEMA_VERSION, TRACKING_COLUMNS, SampleFlag, Status
 from .writer import SessionWriter
 
 __all__ = [
     "HEADER",
     "SCHEMA_VERSION",
+    "TRACKING_COLUMNS",
     "DataFileError",
     "Event",
     "ExcitationRecord",

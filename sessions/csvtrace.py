@@ -57,19 +57,26 @@ def read_csv_rows(path: Path) -> list[list[str]]:
     return list(csv.reader(io.StringIO(text, newline="")))
 
 
+def read_with_header(path: Path, expected: tuple[str, ...]) -> list[list[str]]:
+    """Every row of the CSV file at ``path`` (the header included), after checking that its header line is
+    exactly ``expected``; :class:`DataFileError` naming what is wrong otherwise."""
+    rows = read_csv_rows(path)
+    if not rows:
+        raise DataFileError(f"{path}: empty file, expected the header {','.join(expected)}")
+    header = tuple(c.strip() for c in rows[0])
+    if header != expected:
+        missing = [c for c in expected if c not in header]
+        what = f"missing column(s) {', '.join(missing)}" if missing else "wrong column order"
+        raise DataFileError(
+            f"{path}: line 1: expected the header {','.join(expected)}, got {','.join(header)} ({what})"
+        )
+    return rows
+
+
 def read_trace(path: str | os.PathLike) -> Trace:
     """Read a CSV trace; raises :class:`DataFileError` naming the problem and line."""
     path = Path(path)
-    rows = read_csv_rows(path)
-    if not rows:
-        raise DataFileError(f"{path}: empty file, expected the header {','.join(HEADER)}")
-    header = tuple(c.strip() for c in rows[0])
-    if header != HEADER:
-        missing = [c for c in HEADER if c not in header]
-        what = f"missing column(s) {', '.join(missing)}" if missing else "wrong column order"
-        raise DataFileError(
-            f"{path}: line 1: expected the header {','.join(HEADER)}, got {','.join(header)} ({what})"
-        )
+    rows = read_with_header(path, HEADER)
     values = np.empty((len(rows) - 1, 3))
     count = 0
     for lineno, row in enumerate(rows[1:], start=2):

@@ -53,6 +53,9 @@ class Session:
     events: tuple[Event, ...]
     models: dict[str, ModelRecord]
     calibration: CalibrationRecord | None = None
+    #: The extra ``/samples`` columns a producer added (a tracking run's ``target``, ``predicted``, ...), one
+    #: row per sample; None when the session has none.
+    extra: np.ndarray | None = None
 
     # ------------------------------------------------------------ status
     @property
@@ -174,6 +177,17 @@ def sample_columns(raw: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
+def extra_columns(raw: np.ndarray, n: int) -> np.ndarray | None:
+    """The first ``n`` rows of the columns of ``raw`` beyond :data:`SAMPLE_DTYPE` (None: there are none)."""
+    names = [name for name in raw.dtype.names if name not in SAMPLE_DTYPE.names]
+    if not names:
+        return None
+    out = np.empty(n, np.dtype([(name, raw.dtype[name]) for name in names]))
+    for name in names:
+        out[name] = raw[name][:n]
+    return out
+
+
 def read_events(log: h5py.Dataset) -> tuple[Event, ...]:
     """The events of ``/log``; trailing rows still holding the fill value (no
     status: the writer grew the table but had not written the row) are ignored."""
@@ -213,6 +227,7 @@ def read_excitation(group: h5py.Group) -> ExcitationRecord:
         dwell=_json_attr(a, "dwell") if "dwell" in a else {},
         extra=_json_attr(a, "extra") if "extra" in a else {},
         curves=read_checked(_dataset(group, "curve")) if "curve" in group else None,
+        targets=read_checked(_dataset(group, "target")) if "target" in group else None,
     )
 
 
@@ -281,7 +296,8 @@ def _read(path: Path, f: h5py.File) -> Session:
     version = check_header(path, f)
     a = f.attrs
     raw = read_checked(_dataset(f, "samples", SAMPLE_DTYPE))
-    samples = sample_columns(raw, valid_rows(raw))
+    n = valid_rows(raw)
+    samples = sample_columns(raw, n)
     excitation = read_excitation(f["excitation"])
     if samples.size > excitation.n_points:
         raise DataFileError(f"{samples.size} samples but the excitation plans only {excitation.n_points} points")
@@ -301,6 +317,7 @@ def _read(path: Path, f: h5py.File) -> Session:
         events=read_events(_dataset(f, "log", EVENT_DTYPE)),
         models={name: read_model_group(models[name]) for name in models},
         calibration=read_calibration(f),
+        extra=extra_columns(raw, n),
     )
 
 

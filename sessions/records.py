@@ -27,6 +27,8 @@ class ExcitationRecord:
     ``curves`` ``(N,)`` (optional) numbers the curve each point belongs to,
     ``-1`` for points on none (a FORC protocol's saturation and calibration
     points); ``None`` when the excitation is not made of curves.
+    ``targets`` ``(N,)`` (optional; output unit) is the output each point is
+    meant to reach (a tracking run, ``rig track``); ``None`` otherwise.
     """
 
     kind: str
@@ -40,6 +42,7 @@ class ExcitationRecord:
     dwell: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
     curves: np.ndarray | None = None
+    targets: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         v = np.array(self.inputs, dtype=float).reshape(-1)
@@ -63,6 +66,14 @@ class ExcitationRecord:
                 raise DataFileError("curve index must be >= -1 (-1: on no curve)")
             c.flags.writeable = False
             object.__setattr__(self, "curves", c)
+        if self.targets is not None:
+            y = np.array(self.targets, dtype=float).reshape(-1)
+            if y.shape != v.shape:
+                raise DataFileError(f"targets have {y.size} entries for {v.size} inputs")
+            if not np.all(np.isfinite(y)):
+                raise DataFileError("excitation targets must be finite")
+            y.flags.writeable = False
+            object.__setattr__(self, "targets", y)
         if self.levels is not None:
             grid = Grid(self.levels, self.v_min, self.v_max)  # validates
             object.__setattr__(self, "levels", grid.levels)

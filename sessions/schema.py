@@ -67,6 +67,34 @@ SAMPLE_DTYPE = np.dtype(
 #: reached the file before its data did.
 SAMPLE_FILL = np.array((-1, np.nan, np.nan, np.nan, np.nan, np.nan, False, False, 0), dtype=SAMPLE_DTYPE)
 
+#: The extra ``/samples`` columns of a tracking run (``rig track``): the output each point was meant to reach
+#: (``target``), what the inverse was asked for after the feedback's correction (``command``), the model's
+#: prediction at the commanded input (``predicted``), all in output_unit, and whether the command was
+#: reachable from the memory state.  Readers that do not know them ignore them.
+TRACKING_COLUMNS = np.dtype([("target", "<f8"), ("command", "<f8"), ("predicted", "<f8"), ("reachable", "?")])
+
+
+def samples_dtype(extra: np.dtype | None = None) -> np.dtype:
+    """The ``/samples`` row: :data:`SAMPLE_DTYPE` followed by ``extra``'s columns (None: none)."""
+    if extra is None or not extra.names:
+        return SAMPLE_DTYPE
+    clash = set(extra.names) & set(SAMPLE_DTYPE.names)
+    if clash:
+        raise ValueError(f"extra sample columns {sorted(clash)} clash with the standard ones")
+    return np.dtype(SAMPLE_DTYPE.descr + extra.descr)
+
+
+def samples_fill(dtype: np.dtype) -> np.ndarray:
+    """The fill value of a ``/samples`` table of ``dtype``: :data:`SAMPLE_FILL`, extra floats NaN, the rest 0."""
+    fill = np.zeros((), dtype)
+    for name in dtype.names:
+        if name in SAMPLE_DTYPE.names:
+            fill[name] = SAMPLE_FILL[name]
+        elif dtype[name].kind == "f":
+            fill[name] = np.nan
+    return fill
+
+
 #: One row of ``/calibration``: a measurement at a fixed reference input taken
 #: to monitor drift (a FORC protocol's calibration point before each curve).
 CALIBRATION_DTYPE = np.dtype(

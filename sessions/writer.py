@@ -51,6 +51,7 @@ from .errors import DataFileError, StorageError
 from .guard import deferred_interrupt
 from .lock import WriterLock
 from .log import append_event
+from .models import ModelRecord, write_model_group
 from .reader import sample_columns
 from .records import CalibrationRecord, ExcitationRecord, Quantities
 from .rewrite import rewrite_session
@@ -62,10 +63,11 @@ from .schema import (
     CALIBRATION_DTYPE,
     SAMPLE_CHUNK,
     SAMPLE_DTYPE,
-    SAMPLE_FILL,
     SCHEMA_VERSION,
     SampleFlag,
     Status,
+    samples_dtype,
+    samples_fill,
     software_version,
 )
 
@@ -83,8 +85,13 @@ def write_layout(
     rig_config: dict[str, Any] | None,
     driver: dict[str, Any] | None,
     calibration: CalibrationRecord | None = None,
+    sample_columns: np.dtype | None = None,
+    models: tuple[ModelRecord, ...] = (),
 ) -> None:
-    """Everything of a new session but its samples and events (see ``docs/sessions.md``)."""
+    """Everything of a new session but its samples and events (see ``docs/sessions.md``).
+
+    ``sample_columns``: extra ``/samples`` columns (a tracking run's, :data:`~sessions.schema.TRACKING_COLUMNS`);
+    ``models``: models stored from the start (the model a tracking run inverts)."""
     a = f.attrs
     a["format"] = FORMAT_NAME
     a["schema_version"] = SCHEMA_VERSION
@@ -111,11 +118,18 @@ def write_layout(
     create_checked(g, "measure", excitation.measure)
     if excitation.curves is not None:
         create_checked(g, "curve", excitation.curves.astype(np.int32))
+    if excitation.targets is not None:
+        create_checked(g, "target", excitation.targets)
     if calibration is not None:
         write_calibration(f, calibration)
+    if models:
+        group = f.create_group("models")
+        for record in models:
+            write_model_group(group, record)
+    dtype = samples_dtype(sample_columns)
     f.create_dataset(
-        "samples", shape=(0,), maxshape=(None,), dtype=SAMPLE_DTYPE, chunks=(SAMPLE_CHUNK,),
-        fillvalue=SAMPLE_FILL, fletcher32=True,
+        "samples", shape=(0,), maxshape=(None,), dtype=dtype, chunks=(SAMPLE_CHUNK,),
+        fillvalue=samples_fill(dtype), fletcher32=True,
     )
     f.create_dataset("log", shape=(0,), maxshape=(None,), dtype=EVENT_DTYPE, chunks=(16,))
 
@@ -151,7 +165,10 @@ class SessionWriter:
         self._log = f["log"]
         self._count = int(self._samples.shape[0])
         self._planned = int(f["excitation/inputs"].shape[0])
-        self._row = np.zeros(1, SAMPLE_DTYPE)
+        self._row = np.zeros(1, self._samples.dtype)
+        self._fill = samples_fill(self._samples.dtype)
+        #: The extra ``/samples`` columns of this session (a tracking run's), in order.
+        self.extra_columns = tuple(n for n in self._samples.dtype.names if n not in SAMPLE_DTYPE.names)
         self._status = Status.RUNNING
         self._fsync_interval = fsync_interval_s
         self._fd = f.id.get_vfd_handle()
@@ -179,13 +196,16 @@ class SessionWriter:
         driver: dict[str, Any] | None = None,
         calibration: CalibrationRecord | None = None,
         fsync_interval_s: float | None = 1.0,
+        sample_columns: np.dtype | None = None,
+        models: tuple[ModelRecord, ...] = (),
     ) -> "SessionWriter":
         """Create a new session at ``path`` (never overwrites) with status ``running``.
 
         ``rig_config`` and ``driver`` are stored as JSON; ``calibration``
         (drift-monitor points, e.g. of an imported FORC file) as ``/calibration``; ``fsync_interval_s``
         bounds how often the file is synced to disk (0: after every sample,
-        ``None``: only on close).
+        ``None``: only on close); ``sample_columns`` adds columns to ``/samples``
+        (:meth:`append`'s ``extra``) and ``models`` stores models from the start.
         """
         path = Path(path)
         if path.exists():
@@ -214,7 +234,7 @@ class SessionWriter:
             try:
                 reserve.take()
                 write_layout(f, excitation, quantities or Quantities(), operator, notes, rig_config, driver,
-                             calibration)
+                             calibration, sample_columns, tuple(models))
             except (OSError, RuntimeError) as exc:
                 raise StorageError(f"{path}: cannot create the session ({storage_reason(exc)}); nothing was "
                                    "recorded") from None
@@ -304,12 +324,15 @@ class SessionWriter:
         settled: bool = False,
         measured: bool = True,
         flags: int | SampleFlag = 0,
+        extra: dict[str, float] | None = None,
     ) -> int:
         """Record the next applied point and flush it; returns its index.
 
         Units: ``t_s`` and ``dwell_s`` in s, ``input``/``output``/``raw`` in
         the session's units.  ``output`` is stored as NaN when not
-        ``measured``.  Once this returns, the sample is in the file.
+        ``measured``.  ``extra`` gives the session's extra columns by name
+        (those not given keep their fill value).  Once this returns, the
+        sample is in the file.
         """
         self._require_open()
         k = self._count
@@ -325,6 +348,14 @@ class SessionWriter:
         r["settled"] = settled
         r["measured"] = measured
         r["flags"] = int(flags)
+        for name in self.extra_columns:
+            r[name] = self._fill[name]
+        if extra:
+            unknown = set(extra) - set(self.extra_columns)
+            if unknown:
+                raise DataFileError(f"{self.path}: the session has no sample column(s) {', '.join(sorted(unknown))}")
+            for name, value in extra.items():
+                r[name] = value
         with self._storage_errors(f"recording point {k}", row=k):
             self._check_file()
             with deferred_interrupt():
@@ -452,7 +483,7 @@ class SessionWriter:
         if row is not None:
             try:  # the row in flight must not reach the file later, when HDF5 flushes its cache
                 if self._samples.shape[0] > row:
-                    self._samples[row : row + 1] = SAMPLE_FILL
+                    self._samples[row : row + 1] = self._fill
             except Exception:
                 pass
 

@@ -24,6 +24,12 @@ of the plan:
    (:meth:`sessions.SessionWriter.append`): every applied point gets one,
    unmeasured ones with output NaN.
 
+A tracking run (``rig track``) gives the sequencer a
+:class:`~rig.acquisition.setpoints.SetpointSource`: step 2 then applies the
+set-point it computes from the memory state and the measurements so far
+(instead of the plan's input), and step 6 records the extra columns it
+returns with the row.
+
 ``t_s`` is the time on the rig's clock since the first set-point of the
 run; ``dwell_s`` is the time from applying the set-point to the start of
 its readings (pauses included: the heater was held at the set-point).
@@ -44,6 +50,7 @@ from sessions import SampleFlag
 from .dwell import DwellOutcome, DwellPolicy, DwellSettings, average_reading
 from .interrupt import Aborted, Decision, PauseInfo, PauseSwitch
 from .plan import AcquisitionPlan
+from .setpoints import SetpointSource
 
 #: The set-point of negative saturation: heater off, the beam at ambient, below the whole transition.
 SATURATION_V = 0.0
@@ -53,7 +60,8 @@ class Recorder(Protocol):
     """Where the sequencer writes: :class:`sessions.SessionWriter` satisfies it."""
 
     def append(self, t_s: float, input: float, output: float = math.nan, *, raw: float = math.nan,
-               dwell_s: float = math.nan, settled: bool = False, measured: bool = True, flags: int = 0) -> int: ...
+               dwell_s: float = math.nan, settled: bool = False, measured: bool = True, flags: int = 0,
+               extra: dict[str, float] | None = None) -> int: ...
 
     def log(self, event: str, message: str = "") -> None: ...
 
@@ -87,6 +95,8 @@ class Sequencer:
 
     ``pause`` is the Ctrl-C switch (None: no pausing, Ctrl-C aborts at once);
     ``on_pause(info)`` answers ``"resume"`` or ``"abort"`` (default: abort).
+    ``setpoints`` (a tracking run) decides each point's set-point when it is
+    applied instead of the plan's input, and what is recorded with it.
     """
 
     def __init__(
@@ -101,6 +111,7 @@ class Sequencer:
         pause: PauseSwitch | None = None,
         on_pause: Callable[[PauseInfo], Decision] | None = None,
         on_sample: Callable[[PointResult], None] | None = None,
+        setpoints: SetpointSource | None = None,
     ) -> None:
         self.heater = heater
         self.sensor = sensor
@@ -111,6 +122,7 @@ class Sequencer:
         self.pause = pause
         self.on_pause = on_pause
         self.on_sample = on_sample
+        self.setpoints = setpoints
         self._setpoint = math.nan
 
     # ------------------------------------------------------------ pausing
@@ -202,8 +214,14 @@ class Sequencer:
         readings = self.settings.readings
         t0 = self.clock.now() - elapsed_s
         extra = int(first_flags)
+        source = self.setpoints
         for k in range(start, n):
-            v = float(inputs[k])
+            if source is None:
+                v = float(inputs[k])
+            else:
+                self._checkpoint(k, "before point")
+                policy = self.settings.at(k) if settle[k] else self.settings.transit
+                v = float(source.setpoint(k, self.clock.now() - t0, getattr(policy, "seconds", math.nan)))
             out = self._apply(k, v, bool(settle[k]), "run")
             if measure[k]:
                 deflection, psd = average_reading(self.sensor, readings)
@@ -216,8 +234,10 @@ class Sequencer:
                 f |= SampleFlag.RECONNECTED
             result = PointResult(k, self.clock.now() - t0, v, deflection, psd, out.waited_s,
                                  out.settled, bool(measure[k]), int(f))
+            extra = None if source is None else source.measured(k, v, result.t_s, out.waited_s, deflection)
             self.recorder.append(result.t_s, v, deflection, raw=psd, dwell_s=out.waited_s,
-                                 settled=out.settled, measured=result.measured, flags=result.flags)
+                                 settled=out.settled, measured=result.measured, flags=result.flags,
+                                 **({"extra": extra} if extra else {}))
             extra = 0
             if self.on_sample is not None:
                 self.on_sample(result)

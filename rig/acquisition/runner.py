@@ -36,15 +36,18 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from drivers.protocols import SafeState
 from drivers.rig import Rig
-from sessions import DataFileError, ExcitationRecord, SampleFlag, Session, SessionWriter, Status, read_session
+from sessions import DataFileError, ExcitationRecord, ModelRecord, SampleFlag, Session, SessionWriter, Status, read_session
 
 from .dwell import DwellSettings
 from .engine import PointResult, Sequencer
 from .errors import AcquisitionError
 from .interrupt import Decision, PauseInfo, PauseSwitch
 from .plan import AcquisitionPlan
+from .setpoints import SetpointSource
 
 
 @dataclass(frozen=True)
@@ -105,12 +108,18 @@ def acquire(
     notes: str = "",
     hooks: Hooks | None = None,
     fsync_interval_s: float | None = 1.0,
+    setpoints: SetpointSource | None = None,
+    sample_columns: np.dtype | None = None,
+    models: tuple[ModelRecord, ...] = (),
 ) -> RunOutcome:
     """Run ``record`` (an excitation with its measure plan and dwell settings, see
     :func:`~rig.acquisition.plan.make_record`) on ``rig`` into the new session ``path``.
 
     ``settings`` defaults to the ones described in ``record.dwell``.
     Raises before creating the session when the plan does not fit the heater.
+    A tracking run gives ``setpoints`` (which decides each set-point as it is
+    applied), the extra ``sample_columns`` it records and the ``models`` to
+    store from the start.
     """
     plan = AcquisitionPlan.from_record(record)
     plan.check_window(rig.heater.window, rig.heater.check_setpoint)  # as the wire carries them, full scale too
@@ -120,9 +129,10 @@ def acquire(
     writer = SessionWriter.create(
         path, record, rig_config=rig.config.to_dict(), driver=rig.description,
         operator=operator, notes=notes, fsync_interval_s=fsync_interval_s,
+        sample_columns=sample_columns, models=models,
     )
     seq = Sequencer(rig.heater, rig.sensor, rig.clock, plan, settings, writer,
-                    pause=hooks.pause, on_pause=hooks.on_pause, on_sample=hooks.on_sample)
+                    pause=hooks.pause, on_pause=hooks.on_pause, on_sample=hooks.on_sample, setpoints=setpoints)
 
     def body() -> None:
         seq.saturate()
@@ -131,9 +141,15 @@ def acquire(
     return _drive(rig, writer, body, 0, [0])
 
 
-def resumable(path: str | os.PathLike) -> Session:
-    """The interrupted session at ``path``, checked for resuming (nothing is written)."""
+def resumable(path: str | os.PathLike, tracking: bool = False) -> Session:
+    """The interrupted session at ``path``, checked for resuming (nothing is written); ``tracking``: by
+    ``rig track --resume`` (a tracking run's set-points come from its model and feedback, not its plan)."""
     session = read_session(path)
+    if (session.excitation.targets is not None) != tracking:
+        if tracking:
+            raise AcquisitionError(f"{path}: not a tracking run (no targets); continue it with rig acquire --resume")
+        raise AcquisitionError(f"{path}: a tracking run (its set-points follow targets through a model); "
+                               f"continue it with rig track --resume {path}")
     if session.status is Status.COMPLETE:
         raise DataFileError(f"{path}: the session is complete; there is nothing to resume")
     if session.n_samples >= session.excitation.n_points:
@@ -151,9 +167,13 @@ def resume(
     *,
     hooks: Hooks | None = None,
     fsync_interval_s: float | None = 1.0,
+    setpoints: SetpointSource | None = None,
 ) -> RunOutcome:
-    """Continue the interrupted session ``path`` on ``rig``: saturate, replay, go on (see the module doc)."""
-    session = resumable(path)
+    """Continue the interrupted session ``path`` on ``rig``: saturate, replay, go on (see the module doc).
+
+    A tracking run gives its ``setpoints`` (rebuilt from the session, the points recorded so far
+    included)."""
+    session = resumable(path, tracking=setpoints is not None)
     plan = AcquisitionPlan.from_record(session.excitation)
     plan.check_window(rig.heater.window, rig.heater.check_setpoint)  # as the wire carries them, full scale too
     settings = DwellSettings.from_description(session.excitation.dwell)
@@ -168,7 +188,7 @@ def resume(
     history = session.inputs[:count]
     elapsed = float(session.t_s[count - 1]) if count else 0.0
     seq = Sequencer(rig.heater, rig.sensor, rig.clock, plan, settings, writer,
-                    pause=hooks.pause, on_pause=hooks.on_pause, on_sample=hooks.on_sample)
+                    pause=hooks.pause, on_pause=hooks.on_pause, on_sample=hooks.on_sample, setpoints=setpoints)
     replayed = [0]
 
     def body() -> None:

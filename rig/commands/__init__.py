@@ -40,6 +40,9 @@ COMMANDS: tuple[CommandEntry, ...] = (
                  "Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um)."),
     CommandEntry("import", "rig.commands.import_", "import_",
                  "Turn FILE (a CSV trace or a MicroMag FORC file) into the session OUT."),
+    CommandEntry("invert", "rig.commands.invert", "invert",
+                 "Invert the model in SOURCE for the targets in TARGET (t_s,target_um) and write the set-points to "
+                 "--out."),
     CommandEntry("predict", "rig.commands.predict", "predict",
                  "Predict the output of FILE (a session or a CSV trace) with the model in MODEL_FILE."),
     CommandEntry("report", "rig.commands.report", "report",
@@ -50,6 +53,9 @@ COMMANDS: tuple[CommandEntry, ...] = (
                  "Run the simulated device on loopback until Ctrl-C, in real time."),
     CommandEntry("study", "rig.commands.study", "study",
                  "Reproduce the paper's simulation study and print our results beside the paper's."),
+    CommandEntry("track", "rig.commands.track", "track",
+                 "Drive the rig so that the deflection follows the targets in --target, through the inverse of the "
+                 "model in SOURCE."),
     CommandEntry("validate", "rig.commands.validate", "validate",
                  "Apply the model stored in SESSION to the run given with --on and report its errors."),
     CommandEntry("watch", "rig.commands.watch", "watch",

@@ -2,24 +2,18 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 from click.core import ParameterSource
 
 from drivers.backends import setpoint_rules
-from drivers.config import RigConfig, default_config, load_config, parse_config
-from drivers.errors import CodecError, ConfigError, DriverError, LimitError, SafeStateError, SetpointRefused
-from drivers.protocols import SafeState
-from drivers.rig import open_rig
+from drivers.config import default_config, load_config
 from rig.acquisition import (
     AcquisitionError,
     AcquisitionPlan,
     DwellSettings,
     FixedDwell,
-    Hooks,
-    PauseSwitch,
     RateBelow,
     SettleDwell,
     Transit,
@@ -30,18 +24,15 @@ from rig.acquisition import (
     sequence_record,
     summarise,
 )
-from rig.acquisition.progress import ProgressBar, format_duration, terminal_prompt
+from rig.acquisition.progress import format_duration
 from rig.acquisition.runner import resumable
 from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS
-from sessions import DataFileError, Session, Status, StorageError, read_session
+from sessions import DataFileError, read_session
 
 from ..budget.acquisition import announce, planned_points, too_many_points
 from ..budget.limits import refuse_unless_confirmed
-from ..errors import RigFault
 from ..output import print_json
-
-#: Exit code of a run aborted by the operator (as for Ctrl-C everywhere in ``rig``).
-EXIT_ABORTED = 130
+from ..run_driver import config_for_resume, drive
 
 #: Options that describe a new run; a resumed run takes all of them from its session.
 PLAN_OPTIONS = ("sequence", "levels", "v_min", "v_max", "thermal_term", "points", "seed", "dwell", "dwells",
@@ -65,17 +56,6 @@ def _dwell_choices(text: str | None) -> tuple[float, ...] | None:
     if not values or any(not (v == v and 0 <= v < float("inf")) for v in values):
         raise AcquisitionError(f"--dwells {text!r}: every dwell must be a finite number of seconds >= 0")
     return values
-
-
-def _config_for_resume(config_path: Path | None, session: Session) -> RigConfig:
-    if config_path is not None:
-        return load_config(config_path)
-    if not session.rig_config:
-        raise AcquisitionError(f"{session.path}: no rig configuration stored; give --config")
-    try:
-        return parse_config(session.rig_config, f"{session.path} (stored rig configuration)")
-    except ConfigError as exc:
-        raise ConfigError(f"{exc}; give --config") from None
 
 
 def _report(summary: dict, as_json: bool) -> None:
@@ -156,7 +136,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         if given:
             raise AcquisitionError(f"--resume continues the session's own plan; {', '.join(given)} cannot be used with it")
         session = resumable(resume_path)
-        cfg = _config_for_resume(config_path, session)
+        cfg = config_for_resume(config_path, session)
         target, total, start = resume_path, session.excitation.n_points, session.n_samples
     else:
         if out is None:
@@ -181,63 +161,10 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         announce(plan, dwell, transit, settings.schedule, settle is not None, cfg.clock_kind == "virtual", yes)
         target, total, start = out, record.n_points, 0
 
-    bar = ProgressBar(total, start, enabled=sys.stderr.isatty() if progress is None else progress)
-    switch = PauseSwitch()
-    hooks = Hooks(switch, terminal_prompt(bar), bar.update)
-    rig = None
-    try:
-        with switch.installed(linger=True), open_rig(cfg) as rig:
-            if resume_path is not None:
-                outcome = resume_acquisition(rig, resume_path, hooks=hooks)
-            else:
-                outcome = run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes,
-                                          hooks=hooks)
-    except (DriverError, StorageError) as exc:
-        bar.close()
-        if rig is None or rig.heater_state is None or not target.exists():
-            raise  # nothing was driven, or the session was never created: the error says it all
-        after = _after_fault(target, rig.heater_state, exc)
-        raise RigFault(after if isinstance(exc, SafeStateError) else f"{exc} -- {after}") from None
-    except KeyboardInterrupt as exc:  # an abort outside the run itself (opening the rig, closing it)
-        bar.close()
-        heater = rig.heater_state if rig is not None else None
-        said = heater.describe() if heater is not None else "the heater was not driven"
-        kept = ""
-        if target.exists() and rig is not None:
-            s = read_session(target)
-            kept = f"; session {target} is {s.status.value} with {s.n_samples} of {s.excitation.n_points} points kept"
-        click.echo(f"aborted ({str(exc) or 'interrupted'}): {said}{kept}", err=True)
-        raise click.exceptions.Exit(EXIT_ABORTED) from None
-    bar.close()
-    _report(summarise(read_session(target), outcome), as_json)
-    if outcome.status is Status.ABORTED:
-        click.echo(
-            f"aborted ({outcome.message}): {rig.heater_state.describe()}; every sample kept; "
-            f"{_resume_advice(target, rig.heater_state)}", err=True,
-        )
-        raise click.exceptions.Exit(EXIT_ABORTED)
-    if not rig.heater_state.confirmed:  # complete, but the heater could not be confirmed at 0 V
-        raise RigFault(_after_fault(target, rig.heater_state))
+    def run(rig, hooks):
+        if resume_path is not None:
+            return resume_acquisition(rig, resume_path, hooks=hooks)
+        return run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes, hooks=hooks)
 
-
-def _resume_advice(target: Path, heater: SafeState, fault: BaseException | None = None) -> str:
-    if isinstance(fault, (SetpointRefused, LimitError, CodecError)):
-        return ("the plan cannot be completed on this rig as configured (--resume would fail the same way): "
-                "fix [heater] in rig.toml (max_V, max_current_mA, full_scale_V) or the plan, and start a new run")
-    if not heater.confirmed:
-        return f"once the bench is safe and the instrument answers, continue with: rig acquire --resume {target}"
-    if isinstance(fault, StorageError):
-        return f"free space (or mend the disk), then continue with: rig acquire --resume {target}"
-    return f"continue with: rig acquire --resume {target}"
-
-
-def _after_fault(target: Path, heater: SafeState, fault: BaseException | None = None) -> str:
-    """What a fault left behind, in one clause: the heater as known, the session, and what to do."""
-    try:
-        s = read_session(target)
-    except DataFileError as exc:
-        return f"{heater.describe()}; the session cannot be read back ({exc})"
-    kept = f"session {target} is {s.status.value} with {s.n_samples} of {s.excitation.n_points} points kept"
-    if s.status is Status.COMPLETE:
-        return f"{heater.describe()}; {kept}"
-    return f"{heater.describe()}; {kept}; {_resume_advice(target, heater, fault)}"
+    drive(cfg, target, total, start, progress, run,
+          lambda outcome: _report(summarise(read_session(target), outcome), as_json), "rig acquire")
