@@ -267,3 +267,17 @@ def test_rig_report_draws_each_effect_over_the_run_beside_the_residual(tmp_path)
     labels = [ax.get_ylabel() for ax in fig.axes]
     assert labels == ["first_point (µm)", "joule_power (µm)", "residual (µm)"]
     np.testing.assert_allclose(fig.axes[1].lines[1].get_ydata(), parts["joule_power"])
+
+
+def test_a_sensor_map_held_where_it_is_keeps_its_correction_in_the_linear_solve():
+    """A step-halving re-solves the density with the sensor map held (no columns of its own): at the true map
+    and density, that solve must give the true density back -- the map's correction is known, not refitted."""
+    from identify.effects.joint import _Fitter
+
+    truth, _, y = _truth("sensor_nonlinearity")
+    sensor = truth.effects[0]
+    fitter = _Fitter(GRID, (run_of(y),), "ls", None, [make_effect("sensor_nonlinearity")], True)
+    at_truth = fitter.state(truth.without_effects(), (sensor,))
+    model, _ = fitter.solve(at_truth.ctx, (sensor,), ({},), frozen=True)
+    np.testing.assert_allclose(model.density, truth.density, atol=1e-7)
+    assert model.mu0 == pytest.approx(truth.mu0, abs=1e-7) and model.c_d == pytest.approx(truth.c_d, abs=1e-7)
