@@ -281,3 +281,21 @@ def test_a_sensor_map_held_where_it_is_keeps_its_correction_in_the_linear_solve(
     model, _ = fitter.solve(at_truth.ctx, (sensor,), ({},), frozen=True)
     np.testing.assert_allclose(model.density, truth.density, atol=1e-7)
     assert model.mu0 == pytest.approx(truth.mu0, abs=1e-7) and model.c_d == pytest.approx(truth.c_d, abs=1e-7)
+
+
+def test_a_first_point_offset_belongs_to_a_reading_not_to_a_point_applied_without_one():
+    """A FORC returns towards saturation through points it does not read: a turn whose first point has no
+    reading carries no first-point terms (nor does their persistence reach the readings after it), so a term
+    the fit never saw is never extrapolated onto a held-out reading."""
+    from identify.effects.first_point import indicators
+
+    v = np.array([0.0, 1.0, 2.0, 3.0, 1.5, 0.5, 1.0, 2.0, 2.5, 2.8, 1.0, 0.2])
+    y = np.arange(v.size, dtype=float)
+    y[4] = np.nan                      # the first point after the reversal at 3 V is applied, not read
+    run = run_of(y, v=v, dwell=np.full(v.size, 10.0), t=10.0 * np.arange(1, v.size + 1))
+    terms = indicators(run, decay=0.6, cell=0.5)
+    after = terms[:, 3:]
+    assert not np.any(after[4:6])      # no terms at the unread turn, nor persisting from it
+    assert np.all(after[6] != 0)       # the turn at 0.5 V is read at 1.0 V: its first point carries them
+    np.testing.assert_allclose(after[6], [1.0, 1.0, 0.5, 1.0 - np.exp(-1.0)])
+    np.testing.assert_allclose(after[7], 0.6 * after[6])

@@ -47,11 +47,15 @@ def indicators(run: Run, decay: float = 0.0, cell: float = 1.0) -> np.ndarray:
     e = h.excursion_V
     out_at = np.stack([np.ones_like(e), np.sign(e), e], axis=1)
     np.add.at(out, (h.reversal_index[:, None], np.arange(3)[None, :]), out_at)
-    step = run.inputs[h.turn_index] - run.inputs[h.reversal_index]
+    # the offset is a reading's: a turn whose first point is applied without a reading (a FORC's return
+    # towards saturation) has no first reading to offset, and its terms would be extrapolated unfitted
+    read = np.isfinite(run.outputs[np.minimum(h.turn_index, run.n - 1)])
+    turn, rev = h.turn_index[read], h.reversal_index[read]
+    step = run.inputs[turn] - run.inputs[rev]
     d = np.sign(step)
     after = np.stack([np.ones_like(step), d, step, d * (1.0 - np.exp(-np.abs(step) / cell))], axis=1)
     for j in range(PERSIST + 1 if decay else 1):
-        idx = h.turn_index + j
+        idx = turn + j
         ok = idx < run.n
         np.add.at(out, (idx[ok][:, None], 3 + np.arange(4)[None, :]), (decay ** j) * after[ok])
     return out
