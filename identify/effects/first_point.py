@@ -61,6 +61,27 @@ def indicators(run: Run, decay: float = 0.0, cell: float = 1.0) -> np.ndarray:
     return out
 
 
+#: A term whose part independent of the others is below this share of its size on the fit's readings is
+#: dropped (coefficient 0): every curve of a FORC turns upwards by about the same field step, so the
+#: direction, step and saturating terms repeat the offset there, and a fit of them is an arbitrary
+#: cancellation (coefficients of 1e4 um) that a held-out curve with another step turns into error.
+SEPARABLE = 1e-3
+
+
+def separable(values: np.ndarray) -> np.ndarray:
+    """Indices of the columns of ``values`` ``(m, k)`` (the terms at the fit's readings) that can be told
+    apart: pivoted QR on the unit-norm columns, kept while ``|R_jj|`` >= :data:`SEPARABLE` ``|R_00|``."""
+    import scipy.linalg
+
+    norms = np.linalg.norm(values, axis=0)
+    live = np.flatnonzero(norms > 0)
+    if live.size == 0:
+        return live
+    _, r, piv = scipy.linalg.qr(values[:, live] / norms[live], mode="economic", pivoting=True)
+    d = np.abs(np.diag(r))
+    return np.sort(live[piv[: int(np.sum(d >= SEPARABLE * d[0]))]])
+
+
 class FirstPoint(Effect):
     name = "first_point"
     summary = "the first reading after a reversal differs systematically (a first-point artefact)"
@@ -95,7 +116,8 @@ class FirstPoint(Effect):
         at = bool(setting.get("at", 1.0))
         keep = np.arange(len(LABELS)) if at else np.arange(3, len(LABELS))
         values = [indicators(r, decay, ctx.grid.step)[:, keep] for r in ctx.runs]
-        return single_columns(ctx.runs, values, tuple(LABELS[k] for k in keep))
+        told = separable(np.vstack([v[r.rows] for v, r in zip(values, ctx.runs)]))
+        return single_columns(ctx.runs, [v[:, told] for v in values], tuple(LABELS[k] for k in keep[told]))
 
     def with_fit(self, ctx, setting, coef, cols) -> "FirstPoint":
         full = np.zeros(len(LABELS))
