@@ -34,7 +34,42 @@ def _reverse_cumsum(r: np.ndarray) -> np.ndarray:
     return np.cumsum(r[::-1], axis=0)[::-1]
 
 
-class RegressorOperator(LinearOperator):
+class _MatmatOperator(LinearOperator):
+    """The plumbing every operator here shares: vector products, the adjoint and row views, all through
+    the subclass's ``_matmat`` / ``_rmatmat`` (products with blocks of columns)."""
+
+    def _matvec(self, w: np.ndarray) -> np.ndarray:
+        return self._matmat(np.asarray(w, dtype=float).reshape(-1, 1)).ravel()
+
+    def _rmatvec(self, r: np.ndarray) -> np.ndarray:
+        return self._rmatmat(np.asarray(r, dtype=float).reshape(-1, 1)).ravel()
+
+    def _adjoint(self) -> LinearOperator:
+        return LinearOperator(self.shape[::-1], matvec=self._rmatvec, rmatvec=self._matvec,
+                              matmat=self._rmatmat, rmatmat=self._matmat, dtype=self.dtype)
+
+    def rows(self, rows: np.ndarray) -> LinearOperator:
+        """``A S``: the operator restricted to the rows ``rows``, shape ``(M, P)``."""
+        rows = np.asarray(rows, dtype=np.int64)
+        n = self.shape[0]
+
+        def matmat(w):
+            return self._matmat(np.asarray(w, dtype=float).reshape(self.shape[1], -1))[rows]
+
+        def rmatmat(r):
+            r = np.asarray(r, dtype=float).reshape(rows.size, -1)
+            full = np.zeros((n, r.shape[1]))
+            full[rows] = r
+            return self._rmatmat(full)
+
+        return LinearOperator(
+            (rows.size, self.shape[1]),
+            matvec=lambda w: matmat(w).ravel(), rmatvec=lambda r: rmatmat(r).ravel(),
+            matmat=matmat, rmatmat=rmatmat, dtype=self.dtype,
+        )
+
+
+class RegressorOperator(_MatmatOperator):
     """``S`` for the input sequence ``inputs`` (V), shape ``(n, P)``, without forming it.
 
     ``matvec(w)`` is ``S w`` (um) for ``w = (mu, mu0[, c_d])``; ``rmatvec(r)``
@@ -77,9 +112,6 @@ class RegressorOperator(LinearOperator):
             out += self.inputs[:, None] * w[c + 1]
         return out
 
-    def _matvec(self, w: np.ndarray) -> np.ndarray:
-        return self._matmat(np.asarray(w, dtype=float).reshape(-1, 1)).ravel()
-
     def _rmatmat(self, r: np.ndarray) -> np.ndarray:
         r = np.asarray(r, dtype=float)
         total = r.sum(axis=0)
@@ -90,34 +122,7 @@ class RegressorOperator(LinearOperator):
             tail.append((self.inputs @ r)[None])
         return np.concatenate([prefix_sums_adjoint(self.grid, g), *tail])
 
-    def _rmatvec(self, r: np.ndarray) -> np.ndarray:
-        return self._rmatmat(np.asarray(r, dtype=float).reshape(-1, 1)).ravel()
-
-    def _adjoint(self) -> LinearOperator:
-        return LinearOperator(self.shape[::-1], matvec=self._rmatvec, rmatvec=self._matvec,
-                              matmat=self._rmatmat, rmatmat=self._matmat, dtype=self.dtype)
-
     # -------------------------------------------------------------- views
-    def rows(self, rows: np.ndarray) -> LinearOperator:
-        """``A S``: the operator restricted to the rows ``rows``, shape ``(M, P)``."""
-        rows = np.asarray(rows, dtype=np.int64)
-        n = self.shape[0]
-
-        def matmat(w):
-            return self._matmat(np.asarray(w, dtype=float).reshape(self.shape[1], -1))[rows]
-
-        def rmatmat(r):
-            r = np.asarray(r, dtype=float).reshape(rows.size, -1)
-            full = np.zeros((n, r.shape[1]))
-            full[rows] = r
-            return self._rmatmat(full)
-
-        return LinearOperator(
-            (rows.size, self.shape[1]),
-            matvec=lambda w: matmat(w).ravel(), rmatvec=lambda r: rmatmat(r).ravel(),
-            matmat=matmat, rmatmat=rmatmat, dtype=self.dtype,
-        )
-
     def column_norms(self) -> np.ndarray:
         """Euclidean norm of every column of ``S``, ``(P,)``, without forming ``S``.
 
@@ -190,7 +195,7 @@ class RegressorOperator(LinearOperator):
         return scipy.sparse.csr_array((e.data, _flat_cells(L)[e.indices], e.indptr), shape=(e.shape[0], L * L))
 
 
-class AugmentedOperator(LinearOperator):
+class AugmentedOperator(_MatmatOperator):
     """``[S, C]``: the regressor ``S`` with extra dense columns ``C`` (an effect's terms), shape ``(n, P + k)``.
 
     The parameter vector is ordered so that every sign-constrained entry
@@ -244,9 +249,6 @@ class AugmentedOperator(LinearOperator):
             return top
         return np.vstack([top, self.penalty @ we])
 
-    def _matvec(self, w: np.ndarray) -> np.ndarray:
-        return self._matmat(np.asarray(w, dtype=float).reshape(-1, 1)).ravel()
-
     def _rmatmat(self, r: np.ndarray) -> np.ndarray:
         r = np.asarray(r, dtype=float)
         n = self.n_inputs
@@ -254,15 +256,6 @@ class AugmentedOperator(LinearOperator):
         out[self.base_index] = self.base._rmatmat(r[:n])
         out[self.extra_index] = self.extra.T @ r[:n] + self.penalty.T @ r[n:]
         return out
-
-    def _rmatvec(self, r: np.ndarray) -> np.ndarray:
-        return self._rmatmat(np.asarray(r, dtype=float).reshape(-1, 1)).ravel()
-
-    def _adjoint(self) -> LinearOperator:
-        return LinearOperator(self.shape[::-1], matvec=self._rmatvec, rmatvec=self._matvec,
-                              matmat=self._rmatmat, rmatmat=self._matmat, dtype=self.dtype)
-
-    rows = RegressorOperator.rows
 
     def dense_rows(self, rows: np.ndarray | slice | None = None) -> np.ndarray:
         """Rows of the dense ``[S, C]`` (then the penalty rows) in the parameter order above, ``(len(rows), P + k)``."""
@@ -283,7 +276,7 @@ class AugmentedOperator(LinearOperator):
         return out
 
 
-class RowScaledOperator(LinearOperator):
+class RowScaledOperator(_MatmatOperator):
     """``diag(d) A``: every row of an operator ``A`` (a :class:`RegressorOperator` or
     :class:`AugmentedOperator`) multiplied by ``d`` ``(n,)``.
 
@@ -309,20 +302,8 @@ class RowScaledOperator(LinearOperator):
     def _matmat(self, w: np.ndarray) -> np.ndarray:
         return self.scale[:, None] * self.base._matmat(np.asarray(w, dtype=float))
 
-    def _matvec(self, w: np.ndarray) -> np.ndarray:
-        return self._matmat(np.asarray(w, dtype=float).reshape(-1, 1)).ravel()
-
     def _rmatmat(self, r: np.ndarray) -> np.ndarray:
         return self.base._rmatmat(self.scale[:, None] * np.asarray(r, dtype=float))
-
-    def _rmatvec(self, r: np.ndarray) -> np.ndarray:
-        return self._rmatmat(np.asarray(r, dtype=float).reshape(-1, 1)).ravel()
-
-    def _adjoint(self) -> LinearOperator:
-        return LinearOperator(self.shape[::-1], matvec=self._rmatvec, rmatvec=self._matvec,
-                              matmat=self._rmatmat, rmatmat=self._matmat, dtype=self.dtype)
-
-    rows = RegressorOperator.rows
 
     def dense_rows(self, rows: np.ndarray | slice | None = None) -> np.ndarray:
         picked = np.arange(self.shape[0])[rows if rows is not None else slice(None)]
