@@ -49,7 +49,7 @@ def indicators(run: Run, decay: float = 0.0, cell: float = 1.0) -> np.ndarray:
     np.add.at(out, (h.reversal_index[:, None], np.arange(3)[None, :]), out_at)
     # the offset is a reading's: a turn whose first point is applied without a reading (a FORC's return
     # towards saturation) has no first reading to offset, and its terms would be extrapolated unfitted
-    read = np.isfinite(run.outputs[np.minimum(h.turn_index, run.n - 1)])
+    read = np.isfinite(run.outputs[h.turn_index])
     turn, rev = h.turn_index[read], h.reversal_index[read]
     step = run.inputs[turn] - run.inputs[rev]
     d = np.sign(step)

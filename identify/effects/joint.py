@@ -261,7 +261,7 @@ class _Fitter:
             u_c = st.stack(list(ctx.predictions))
             row_scale = sensor.slope(u_c)
             outputs = st.outputs + (row_scale - 1.0) * u_c
-            if not any(a and e.stage == SENSOR for e, a in zip(effects, active)):
+            if not active[effects.index(sensor)]:
                 # the map held where it is (no columns of its own): its correction at u_c is known, not fitted
                 outputs = outputs - (sensor.sense(u_c) - u_c)
             sensor_rows = [k for k, (i, _) in enumerate(owner) if i >= 0 and effects[i].stage == SENSOR]
