@@ -14,7 +14,8 @@ from identify.diagnosis.base import fit_base, uncertain_directions
 from identify.effects import EFFECTS, Context
 from identify.effects.thermal_lag import lagged
 from identify.diagnosis.noise import NoiseEstimate, combine, from_repeated_runs, from_repeated_visits
-from identify.diagnosis.scoring import Design, bootstrap_mse, cross_validate, make_blocks, solve_coefficients
+from identify.diagnosis.scoring import (Design, bootstrap_mse, cross_validate, feasible_coefficients, make_blocks,
+                                       solve_coefficients)
 from identify.diagnosis.verdict import Evidence
 
 SIGMA = 0.005
@@ -90,6 +91,35 @@ def test_cross_validation_recovers_a_structure_and_picks_its_setting():
     noise = rng.normal(size=m)
     cv = cross_validate(noise, blocks, designs)
     assert np.mean((noise - cv.prediction) ** 2) >= np.mean(noise**2) * 0.98
+
+
+def test_the_setting_choice_honours_the_sign_of_a_constrained_spectrum():
+    # a relaxation spectrum (several coefficients >= 0) of either sign: the two settings span the same
+    # space, so only the constraint tells them apart -- solved without it the choice was a tie, the first
+    # sign won, and its constrained fit predicted nothing
+    m = 240
+    t = np.linspace(0.0, 1.0, m)
+    spectrum = np.stack([np.exp(-t / tau) for tau in (0.03, 0.1, 0.3, 1.0)], axis=1)
+    gap = -spectrum @ np.array([0.0, 1.0, 0.5, 0.2])
+    nonneg = np.ones(4, bool)
+    designs = [Design(sign * spectrum, nonneg=nonneg) for sign in (1.0, -1.0)]
+    cv = cross_validate(gap, make_blocks([m]), designs)
+    assert np.all(cv.chosen == 1) and cv.full_setting == 1
+    np.testing.assert_allclose(cv.prediction, gap, atol=1e-4 * np.abs(gap).max())
+
+
+def test_feasible_coefficients_are_feasible_and_exact_when_the_constraint_is_idle_or_binds_simply():
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(50, 4))
+    nonneg = np.array([True, True, True, False])
+    y = a @ np.array([1.0, 0.5, 2.0, -1.0])  # the unconstrained optimum is feasible: returned as it is
+    np.testing.assert_allclose(feasible_coefficients(a.T @ a, a.T @ y, nonneg), [1.0, 0.5, 2.0, -1.0], rtol=1e-5)
+    y = a @ np.array([1.0, -0.5, 2.0, -1.0])  # one coefficient binds: batched, every system at once
+    grams, rhs = np.stack([a.T @ a] * 3), np.stack([a.T @ y] * 3)
+    got = feasible_coefficients(grams, rhs, nonneg)
+    ref = scipy.optimize.lsq_linear(a, y, bounds=([0, 0, 0, -np.inf], np.inf)).x
+    assert np.all(got[:, :3] >= 0)
+    np.testing.assert_allclose(got, np.stack([ref] * 3), atol=1e-5)
 
 
 def test_identification_terms_take_part_in_the_fit_but_are_never_scored():

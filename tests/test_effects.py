@@ -147,6 +147,28 @@ def test_the_mean_field_fixed_point_is_exact_and_continuous_by_hand():
         assert u[n] == pytest.approx(TRUE.mu0 + TRUE.c_d * v + state.output, abs=1e-6)
 
 
+def test_creep_counts_the_rise_from_the_initial_state_into_the_first_point_by_hand():
+    # every run starts in negative saturation at initial_V (the sequencer saturates at 0 V); the first
+    # set-point is a change of the output like any other, and a slow creep still relaxes from it later
+    tau, w = 200.0, 0.01
+    creep = EFFECTS["creep"]({"drive": "output", "time_constants_s": [tau], "weights": [w]})
+    model = replace(TRUE, effects=(creep,))
+    v, t = np.array([3.0, 3.0, 3.0]), np.array([10.0, 110.0, 410.0])
+    run = Run("two", v, np.zeros(3), t, np.array([10.0, 100.0, 300.0]), 4, 0.0)
+    u = TRUE.predict(v)
+    u0 = float(TRUE.predict(np.array([0.0]))[0])  # negative saturation at 0 V
+    assert abs(u[0] - u0) > 1.0  # a large rise
+    expected = u + w * (u[0] - u0) * np.exp(-t / tau)  # the set-point was applied at t = 0
+    np.testing.assert_allclose(predict_run(model, run), expected, rtol=1e-12, atol=1e-12)
+    # the joint fit's columns count it the same way: a spectrum its penalty leaves alone is recovered exactly
+    smooth = EFFECTS["creep"]({"drive": "output", "time_constants_s": list(CREEP_TAUS),
+                               "weights": list(0.002 + 0.001 * np.arange(len(CREEP_TAUS)))})
+    y = predict_run(replace(TRUE, effects=(smooth,)), run_of(np.zeros(V.size)))
+    fit = fit_with_effects(GRID, [run_of(y)], "ls", [make_effect("creep")])
+    assert fit.rmse <= 1e-9 * float(np.ptp(y))
+    np.testing.assert_allclose(fit.model.effects[0].params["weights"], smooth.params["weights"], rtol=1e-6)
+
+
 def test_a_model_without_effects_reads_and_writes_as_before():
     d = TRUE.to_dict()
     assert "effects" not in d

@@ -146,6 +146,14 @@ class Context:
         return part + m.c_d * np.asarray(th, dtype=float)
 
 
+def start_of(model: "PreisachModel", initial_V: float) -> tuple[float, float]:
+    """Equation (22)'s output and its phase-transition part (um) at a run's initial state: the memory in
+    negative saturation, the input risen to ``initial_V`` (V) and at rest there (the sequencer saturates
+    at 0 V before the first point, and the first point's change is counted from there)."""
+    u = float(model.without_effects().predict(np.array([float(initial_V)]))[0])
+    return u, u - model.mu0 - model.c_d * float(initial_V)
+
+
 def feedback_of(run: Run, prediction: np.ndarray) -> np.ndarray:
     """The output a run's hysterons are taken to feel: measured where measured, else ``prediction``."""
     return np.where(np.isfinite(run.outputs), run.outputs, prediction)
@@ -250,10 +258,13 @@ class Effect(ABC):
     #: (output) Whether the contribution depends on the model's own output (``contribution``'s ``u``).
     needs_output: bool = False
 
-    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
+                     start: tuple[float, float] | None = None) -> np.ndarray:
         """(output) The effect's contribution to the output (um) at every point of ``run``, ``(n,)``;
         ``u`` ``(n,)`` is equation (22)'s output (um) and ``phase`` its phase-transition part (without the
-        bias and the thermal term), where the effect depends on them."""
+        bias and the thermal term), where the effect depends on them; ``start`` the two at the run's
+        initial state (:func:`start_of`), from which the first point's change is counted (None: no change
+        into the first point)."""
         return np.zeros(run.n)
 
     def sense(self, u: np.ndarray) -> np.ndarray:

@@ -63,7 +63,8 @@ class BaselineDrift(Effect):
             fitted[first.name]["coefficients"] = c.tolist()
         return BaselineDrift({"runs": {**previous, **fitted}})
 
-    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
+                     start: tuple[float, float] | None = None) -> np.ndarray:
         entry = self.params["runs"].get(run.name)
         return np.zeros(run.n) if entry is None else spline_of(entry, run.t_s)
 

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..runs import Run
 from . import pipeline_order
-from .base import INPUT, OUTPUT, SENSOR, Effect, EffectNotApplicable
+from .base import INPUT, OUTPUT, SENSOR, Effect, EffectNotApplicable, start_of
 from .interaction import Interaction
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -81,17 +81,19 @@ def preisach_output(model: "PreisachModel", x: np.ndarray, thermal: np.ndarray) 
 
 
 def output_contributions(effects: Iterable[Effect], run: Run, u: np.ndarray | None = None,
-                         which: str = "all", phase: np.ndarray | None = None) -> np.ndarray:
+                         which: str = "all", phase: np.ndarray | None = None,
+                         start: tuple[float, float] | None = None) -> np.ndarray:
     """The output effects' contributions summed (um), ``(n,)``; ``u`` equation (22)'s output and ``phase``
-    its phase-transition part (for the effects that depend on them); ``which``: ``all``, ``static`` (those
-    that do not) or ``driven`` (those that do)."""
+    its phase-transition part (for the effects that depend on them), ``start`` the two at the run's initial
+    state (:func:`identify.effects.base.start_of`); ``which``: ``all``, ``static`` (those that do not) or
+    ``driven`` (those that do)."""
     total = np.zeros(run.n)
     for e in effects:
         if e.stage != OUTPUT or not e.fitted:
             continue
         if (which == "static" and e.needs_output) or (which == "driven" and not e.needs_output):
             continue
-        total += e.contribution(run, u, phase)
+        total += e.contribution(run, u, phase, start)
     return total
 
 
@@ -120,7 +122,8 @@ def deflection(model: "PreisachModel", run: Run, effects: Iterable[Effect] | Non
         u = _fixed_point(model, a, b, inter.k, inter.drive) + (model.mu0 + model.c_d * thermal
                                                                if inter.source == "phase" else -static)
     phase = u - model.mu0 - model.c_d * thermal
-    return u + static + output_contributions(effects, run, u, which="driven", phase=phase)
+    return u + static + output_contributions(effects, run, u, which="driven", phase=phase,
+                                             start=start_of(model, run.initial_V))
 
 
 def predict_run(model: "PreisachModel", run: Run, effects: Iterable[Effect] | None = None) -> np.ndarray:

@@ -6,7 +6,9 @@ A change of the output relaxes afterwards (um), and relaxations add up
 * ``reversal`` -- each excursion of the input ``E_r`` (V) that ends at a
   reversal, from the time ``t_r`` the input turned back: ``E_r K(t - t_r)``;
 * ``output`` -- every change of the hysteresis part's output ``du_k`` (um)
-  at every set-point, from the time it was applied: ``du_k K(t - t_k)``;
+  at every set-point, from the time it was applied: ``du_k K(t - t_k)``
+  (the first change from the output at the run's initial state: negative
+  saturation at ``initial_V``, where the sequencer starts every run);
 * ``phase`` -- the same for the phase transition's part alone (the
   Preisach sum, without the bias and the thermal term);
 * ``excursion`` -- every change of the output's excursion since the last
@@ -35,7 +37,7 @@ import numpy as np
 from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
-from .base import OUTPUT, Columns, Context, Effect, finite_array, needs_reversals, needs_time
+from .base import OUTPUT, Columns, Context, Effect, finite_array, needs_reversals, needs_time, start_of
 
 #: Relaxation times of the kernel (s): log-spaced from 2 s to 5.5 h.
 TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(2.0, 20000.0, 9))
@@ -73,29 +75,36 @@ def reversal_steps(run: Run) -> np.ndarray:
     return out
 
 
-def output_steps(u: np.ndarray) -> np.ndarray:
-    """``(n,)``: the change of the output ``u`` (um) into every point (from the first point's value)."""
-    return np.diff(np.asarray(u, dtype=float), prepend=float(u[0]) if len(u) else 0.0)
+def output_steps(u: np.ndarray, u0: float | None = None) -> np.ndarray:
+    """``(n,)``: the change of the output ``u`` (um) into every point, the first from ``u0`` (the output
+    at the run's initial state; None: no change into the first point)."""
+    return np.diff(np.asarray(u, dtype=float), prepend=(float(u[0]) if u0 is None else u0) if len(u) else 0.0)
 
 
-def excursion_steps(run: Run, u: np.ndarray) -> np.ndarray:
-    """``(n,)``: the change into every point of the output's excursion since the last reversal point."""
+def excursion_steps(run: Run, u: np.ndarray, u0: float | None = None) -> np.ndarray:
+    """``(n,)``: the change into every point of the output's excursion since the last reversal point (before
+    the first reversal: since the initial state, output ``u0``; None: since the first point)."""
     h = run.history
     u = np.asarray(u, dtype=float)
     last = np.searchsorted(h.reversal_index, np.arange(run.n), side="right") - 1
-    ref = np.where(last >= 0, u[h.reversal_index[np.maximum(last, 0)]] if h.reversal_index.size else u[0], u[0])
-    return output_steps(u - ref)
+    start = u[0] if u0 is None else u0
+    ref = np.where(last >= 0, u[h.reversal_index[np.maximum(last, 0)]] if h.reversal_index.size else start, start)
+    return output_steps(u - ref, None if u0 is None else 0.0)
 
 
-def relaxations(run: Run, taus: np.ndarray, drive: str = "reversal", u: np.ndarray | None = None) -> np.ndarray:
+def relaxations(run: Run, taus: np.ndarray, drive: str = "reversal", u: np.ndarray | None = None,
+                u0: float | None = None) -> np.ndarray:
     """``(n, J)``: the relaxation columns of ``run`` for each time constant; ``u`` the output that drives
-    it (``output``, ``excursion``: the model's; ``phase``: its phase-transition part)."""
+    it (``output``, ``excursion``: the model's; ``phase``: its phase-transition part) and ``u0`` its value
+    at the run's initial state (the sequencer's saturation before the first point: on an identification
+    run the rise from it is the largest change of the run, and a slow kernel still relaxes from it hours
+    later)."""
     if drive == "reversal":
         steps = reversal_steps(run)
     elif drive in ("output", "phase", "excursion"):
         if u is None:
             raise IdentifyError(f"creep driven by the {drive} needs the model's output")
-        steps = excursion_steps(run, u) if drive == "excursion" else output_steps(u)
+        steps = excursion_steps(run, u, u0) if drive == "excursion" else output_steps(u, u0)
     else:
         raise IdentifyError(f"creep drive must be one of {', '.join(DRIVES)}, got {drive!r}")
     return relax(run.t_s, run.setpoint_t, steps, taus)
@@ -108,6 +117,12 @@ def _driver(ctx: Context, i: int, drive: str) -> np.ndarray:
     if drive == "phase":
         return u - ctx.model.mu0 - ctx.model.c_d * ctx.thermal[i]
     return u
+
+
+def _start(ctx: Context, i: int, drive: str) -> float:
+    """What drives the relaxation at run ``i``'s initial state (the first point's change is counted from it)."""
+    u0, phase0 = start_of(ctx.model, ctx.runs[i].initial_V)
+    return phase0 if drive == "phase" else u0
 
 
 def _rough(k: int) -> np.ndarray:
@@ -149,7 +164,8 @@ class Creep(Effect):
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         taus = np.asarray(TIME_CONSTANTS_S)
         drive = setting.get("drive", "reversal")
-        values = [setting["sign"] * relaxations(r, taus, drive, _driver(ctx, i, drive)) for i, r in enumerate(ctx.runs)]
+        values = [setting["sign"] * relaxations(r, taus, drive, _driver(ctx, i, drive), _start(ctx, i, drive))
+                  for i, r in enumerate(ctx.runs)]
         unit = "um_per_V" if drive == "reversal" else "fraction"  # of the input excursion, or of the change
         labels = tuple(f"{unit}_at_{tau:.3g}s" for tau in taus)
         k = taus.size
@@ -160,10 +176,12 @@ class Creep(Effect):
         return Creep({"drive": setting.get("drive", "reversal"), "time_constants_s": list(TIME_CONSTANTS_S),
                       "weights": w.tolist()})
 
-    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
+                     start: tuple[float, float] | None = None) -> np.ndarray:
         p = self.params
         driver = phase if p["drive"] == "phase" else u
-        return relaxations(run, np.asarray(p["time_constants_s"]), p["drive"], driver) @ np.asarray(p["weights"])
+        u0 = None if start is None else start[1 if p["drive"] == "phase" else 0]
+        return relaxations(run, np.asarray(p["time_constants_s"]), p["drive"], driver, u0) @ np.asarray(p["weights"])
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
         w = np.asarray(self.params["weights"])

@@ -124,7 +124,8 @@ class FirstPoint(Effect):
         full[[LABELS.index(label) for label in cols.labels]] = np.asarray(coef, dtype=float)
         return FirstPoint({"coefficients_um": full.tolist(), "decay": setting.get("decay", 0.0), "cell": ctx.grid.step})
 
-    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
+                     start: tuple[float, float] | None = None) -> np.ndarray:
         p = self.params
         return indicators(run, p["decay"], p["cell"]) @ np.asarray(p["coefficients_um"])
 

@@ -50,7 +50,7 @@ from ..model import PreisachModel
 from ..operators import RegressorOperator
 from ..runs import Run
 from . import pipeline_order
-from .base import INPUT, SENSOR, Columns, Context, Effect, EffectNotIdentifiable, feedback_of
+from .base import INPUT, SENSOR, Columns, Context, Effect, EffectNotIdentifiable, feedback_of, start_of
 from .compose import hysteron_inputs, output_contributions, sensed
 
 #: Regressor operators of hysteron-input sequences kept by one fit (each replay of the memory curve
@@ -175,7 +175,8 @@ def _deflection(hyst, model: PreisachModel, effects: tuple[Effect, ...], run: Ru
     its equation (22) part."""
     x, thermal = hysteron_inputs(effects, run, fb, model)
     u = hyst(x) + model.c_d * thermal
-    return u + output_contributions(effects, run, u, phase=u - model.mu0 - model.c_d * thermal), u
+    return u + output_contributions(effects, run, u, phase=u - model.mu0 - model.c_d * thermal,
+                                    start=start_of(model, run.initial_V)), u
 
 
 def _context(evaluator: _Hysteresis, grid: Grid, model: PreisachModel, effects: tuple[Effect, ...],

@@ -49,6 +49,7 @@ class JoulePower(Effect):
     def with_fit(self, ctx, setting, coef, cols) -> "JoulePower":
         return JoulePower({"um_per_V2": float(coef[0]), "um_per_V4": float(coef[1])})
 
-    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
+                     start: tuple[float, float] | None = None) -> np.ndarray:
         p = run.inputs ** 2
         return self.params["um_per_V2"] * p + self.params["um_per_V4"] * p * p

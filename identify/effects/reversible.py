@@ -132,7 +132,8 @@ class Reversible(Effect):
         inc = setting.get("sign", 1.0) * np.asarray(coef, dtype=float)
         return Reversible({"walls": ctx.grid.walls.tolist(), "increments_um": inc.tolist(), "monotone": self.monotone})
 
-    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None) -> np.ndarray:
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
+                     start: tuple[float, float] | None = None) -> np.ndarray:
         p = self.params
         return increment_basis(np.asarray(p["walls"]), run.inputs) @ np.asarray(p["increments_um"])
 

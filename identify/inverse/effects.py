@@ -67,12 +67,13 @@ def _breakpoints(effect: Effect) -> list[float]:
     return [float(k) for k in walls] if walls else []
 
 
-def probe_run(name: str, inputs, t_s=None, dwell_s=None) -> Run:
-    """A run holding ``inputs`` (V) to ask an effect about (outputs are irrelevant to a contribution)."""
+def probe_run(name: str, inputs, t_s=None, dwell_s=None, initial_V: float = 0.0) -> Run:
+    """A run holding ``inputs`` (V), started from ``initial_V``, to ask an effect about (outputs are
+    irrelevant to a contribution)."""
     v = np.asarray(inputs, dtype=float)
     t = np.zeros(v.size) if t_s is None else np.asarray(t_s, dtype=float)
     d = np.full(v.size, np.nan) if dwell_s is None else np.asarray(dwell_s, dtype=float)
-    return Run(name, v, np.zeros(v.size), t, d)
+    return Run(name, v, np.zeros(v.size), t, d, initial_V=float(initial_V))
 
 
 @dataclass(frozen=True)

@@ -140,11 +140,12 @@ class Inverter:
         self.lo, self.hi = max(lo, grid.v_min), min(hi, grid.v_max)
         self.path = PreisachPath(grid, model.density, MemoryCurve(grid.levels))
         self._h, self._v0 = grid.step, grid.v_min
-        self.v = float(initial_V)
+        self.v = self._initial_V = float(initial_V)
         self.x = max(self.v, grid.v_min)  # the hysterons' input (V): risen to the set-point from negative saturation
         self.path.apply(self._coordinate(self.x))
         self._theta = self.v
         self._deflection = model.mu0 + model.c_d * self.v + self.path.value
+        self._start = (self._deflection, self.path.value)  # what the output effects count the first change from
         self._history: dict[str, list[float]] = {"v": [], "t": [], "dwell": [], "u": [], "phase": []}
         span = grid.v_max - grid.v_min
         self._tie = TIE * span
@@ -210,11 +211,12 @@ class Inverter:
         out = {}
         for up in (True, False):
             v = h["v"] + [self.v + (delta if up else -delta)]
-            run = probe_run(self.run_name, v, h["t"] + [t_s], h["dwell"] + [dwell_s])
+            run = probe_run(self.run_name, v, h["t"] + [t_s], h["dwell"] + [dwell_s], self._initial_V)
             alpha = g_u = g_p = 0.0
             for e in self.plan.offsets:
                 def at(uk: float, pk: float) -> float:
-                    return float(e.contribution(run, np.asarray(h["u"] + [uk]), np.asarray(h["phase"] + [pk]))[-1])
+                    return float(e.contribution(run, np.asarray(h["u"] + [uk]), np.asarray(h["phase"] + [pk]),
+                                                self._start)[-1])
 
                 c00 = at(0.0, 0.0)
                 alpha += c00
@@ -361,9 +363,9 @@ class Inverter:
             h["dwell"].append(float(dwell_s))
             h["u"].append(u22)
             h["phase"].append(p)
-            run = probe_run(self.run_name, h["v"], h["t"], h["dwell"])
+            run = probe_run(self.run_name, h["v"], h["t"], h["dwell"], self._initial_V)
             for e in self.plan.offsets:
-                deflection += float(e.contribution(run, np.asarray(h["u"]), np.asarray(h["phase"]))[-1])
+                deflection += float(e.contribution(run, np.asarray(h["u"]), np.asarray(h["phase"]), self._start)[-1])
         if self.lag is not None:
             self.lag.advance(v, dwell_s)
         self.v, self.x, self._theta = v, x, theta
