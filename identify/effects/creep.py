@@ -11,9 +11,12 @@ A change of the output relaxes afterwards (um), and relaxations add up
   saturation at ``initial_V``, where the sequencer starts every run);
 * ``phase`` -- the same for the phase transition's part alone (the
   Preisach sum, without the bias and the thermal term);
-* ``excursion`` -- every change of the output's excursion since the last
-  reversal (it starts afresh at each reversal): a creep that relaxes from
-  where it is towards the size of the current excursion.
+* ``excursion`` -- every change of the output's excursion since the output
+  last turned back (it starts afresh at each turn): a creep that relaxes
+  from where it is towards the size of the current excursion;
+* ``phase_excursion`` -- the same for the phase transition's part alone
+  (it turns back with the input; the whole output can turn where the
+  thermal term outweighs the transition).
 
 The kernel is a relaxation spectrum, ``K(t) = s sum_j a_j exp(-t / tau_j)``
 with ``a_j >= 0`` over :data:`TIME_CONSTANTS_S` (2 s to 5.5 h, log-spaced)
@@ -39,10 +42,16 @@ from ..grid import Grid
 from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite_array, needs_reversals, needs_time, start_of
 
+#: A change of the driving output smaller than this fraction of its range does not turn it back (``excursion``).
+STILL = 1e-9
 #: Relaxation times of the kernel (s): log-spaced from 2 s to 5.5 h.
 TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(2.0, 20000.0, 9))
 #: What drives the relaxation (a setting).
-DRIVES = ("reversal", "output", "phase", "excursion")
+DRIVES = ("reversal", "output", "phase", "excursion", "phase_excursion")
+#: The drives that follow the phase-transition part of the output (without the bias and the thermal term).
+PHASE_DRIVES = ("phase", "phase_excursion")
+#: The drives that follow an excursion since the driving output last turned back.
+EXCURSION_DRIVES = ("excursion", "phase_excursion")
 #: Weights of the spectrum's roughness penalty tried by the diagnosis (relative to the data): one, light
 #: (a second weight doubled the settings to choose among, and the choice itself cost more than it bought).
 SMOOTHING = (0.01,)
@@ -82,29 +91,44 @@ def output_steps(u: np.ndarray, u0: float | None = None) -> np.ndarray:
 
 
 def excursion_steps(run: Run, u: np.ndarray, u0: float | None = None) -> np.ndarray:
-    """``(n,)``: the change into every point of the output's excursion since the last reversal point (before
-    the first reversal: since the initial state, output ``u0``; None: since the first point)."""
-    h = run.history
+    """``(n,)``: the change into every point of the output's excursion since the output last turned back
+    (before its first turn: since the initial state, output ``u0``; None: since the first point).
+
+    The turns are the output's own -- where its changes change sign -- not the input's: with a thermal
+    term of the other sign the output can fall while the heater rises.  Changes below
+    :data:`STILL` of the output's range do not turn it (a saturated phase part stays where it is).
+    """
     u = np.asarray(u, dtype=float)
-    last = np.searchsorted(h.reversal_index, np.arange(run.n), side="right") - 1
-    start = u[0] if u0 is None else u0
-    ref = np.where(last >= 0, u[h.reversal_index[np.maximum(last, 0)]] if h.reversal_index.size else start, start)
-    return output_steps(u - ref, None if u0 is None else 0.0)
+    if not u.size:
+        return np.zeros(0)
+    start = float(u[0]) if u0 is None else float(u0)
+    before = np.concatenate([[start], u[:-1]])
+    d = u - before
+    still = STILL * max(float(np.ptp(np.concatenate([[start], u]))), 1e-300)
+    anchor, direction = start, 0.0
+    excursion = np.empty(u.size)
+    for k in range(u.size):
+        if abs(d[k]) > still:
+            s = 1.0 if d[k] > 0 else -1.0
+            if s != direction:
+                anchor, direction = float(before[k]), s
+        excursion[k] = u[k] - anchor
+    return output_steps(excursion, 0.0)
 
 
 def relaxations(run: Run, taus: np.ndarray, drive: str = "reversal", u: np.ndarray | None = None,
                 u0: float | None = None) -> np.ndarray:
     """``(n, J)``: the relaxation columns of ``run`` for each time constant; ``u`` the output that drives
-    it (``output``, ``excursion``: the model's; ``phase``: its phase-transition part) and ``u0`` its value
-    at the run's initial state (the sequencer's saturation before the first point: on an identification
-    run the rise from it is the largest change of the run, and a slow kernel still relaxes from it hours
-    later)."""
+    it (``output``, ``excursion``: the model's; ``phase``, ``phase_excursion``: its phase-transition part)
+    and ``u0`` its value at the run's initial state (the sequencer's saturation before the first point:
+    on an identification run the rise from it is the largest change of the run, and a slow kernel still
+    relaxes from it hours later)."""
     if drive == "reversal":
         steps = reversal_steps(run)
-    elif drive in ("output", "phase", "excursion"):
+    elif drive in DRIVES:
         if u is None:
             raise IdentifyError(f"creep driven by the {drive} needs the model's output")
-        steps = excursion_steps(run, u, u0) if drive == "excursion" else output_steps(u, u0)
+        steps = excursion_steps(run, u, u0) if drive in EXCURSION_DRIVES else output_steps(u, u0)
     else:
         raise IdentifyError(f"creep drive must be one of {', '.join(DRIVES)}, got {drive!r}")
     return relax(run.t_s, run.setpoint_t, steps, taus)
@@ -114,7 +138,7 @@ def _driver(ctx: Context, i: int, drive: str) -> np.ndarray:
     """What drives the relaxation on run ``i``: the model's output before the output effects, or its
     phase-transition part (without the bias and the thermal term)."""
     u = ctx.bare_output(i)
-    if drive == "phase":
+    if drive in PHASE_DRIVES:
         return u - ctx.model.mu0 - ctx.model.c_d * ctx.thermal[i]
     return u
 
@@ -122,7 +146,7 @@ def _driver(ctx: Context, i: int, drive: str) -> np.ndarray:
 def _start(ctx: Context, i: int, drive: str) -> float:
     """What drives the relaxation at run ``i``'s initial state (the first point's change is counted from it)."""
     u0, phase0 = start_of(ctx.model, ctx.runs[i].initial_V)
-    return phase0 if drive == "phase" else u0
+    return phase0 if drive in PHASE_DRIVES else u0
 
 
 def _rough(k: int) -> np.ndarray:
@@ -179,8 +203,8 @@ class Creep(Effect):
     def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
                      start: tuple[float, float] | None = None) -> np.ndarray:
         p = self.params
-        driver = phase if p["drive"] == "phase" else u
-        u0 = None if start is None else start[1 if p["drive"] == "phase" else 0]
+        driver = phase if p["drive"] in PHASE_DRIVES else u
+        u0 = None if start is None else start[1 if p["drive"] in PHASE_DRIVES else 0]
         return relaxations(run, np.asarray(p["time_constants_s"]), p["drive"], driver, u0) @ np.asarray(p["weights"])
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:

@@ -260,7 +260,7 @@ def plan_effects(effects: tuple[Effect, ...] | list[Effect], run_name: str) -> E
         elif e.name in STATIC_DEGREE and e.stage == OUTPUT:
             plan.static.append(e)
         elif e.name == "creep" and e.stage == OUTPUT:
-            if (e.params or {}).get("drive") == "excursion":
+            if (e.params or {}).get("drive") in ("excursion", "phase_excursion"):
                 raise _refuse(e, "driven by the excursion since the last reversal, its value at a reversal point "
                                  "depends on the set-point after it (which makes the point a reversal); an inversion "
                                  "cannot know that in advance")
