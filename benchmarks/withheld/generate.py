@@ -155,11 +155,12 @@ class Case:
         return f"{self.split}-{self.seed}-{self.label}-{self.level:g}sigma"
 
 
-def split_seeds(split: str, n: int) -> list[int]:
+def split_seeds(split: str, n: int, skip: int = 0) -> list[int]:
+    """Seeds ``skip .. skip + n - 1`` of ``split`` (in its order)."""
     seeds = SPLITS[split]
-    if n > len(seeds):
+    if skip < 0 or n < 0 or skip + n > len(seeds):
         raise ValueError(f"the {split} split has {len(seeds)} seeds")
-    return list(seeds[:n])
+    return list(seeds[skip:skip + n])
 
 
 def pairs_for(index: int, per_seed: int = PAIRS_PER_SEED) -> list[tuple[str, str]]:
@@ -187,11 +188,12 @@ def parse_selection(text: str | None) -> set[str]:
 
 
 def make_cases(split: str, n_seeds: int, levels: Sequence[float] = (3.0,), selection: set[str] | None = None,
-               pairs_per_seed: int = PAIRS_PER_SEED) -> list[Case]:
-    """Every case of the first ``n_seeds`` seeds of ``split`` that ``selection`` asks for."""
+               pairs_per_seed: int = PAIRS_PER_SEED, skip: int = 0) -> list[Case]:
+    """Every case of ``n_seeds`` seeds of ``split``, after its first ``skip``, that ``selection`` asks for
+    (a seed's pairs follow from its place in the split, whatever is skipped)."""
     sel = selection if selection is not None else parse_selection(None)
     out: list[Case] = []
-    for index, seed in enumerate(split_seeds(split, n_seeds)):
+    for index, seed in enumerate(split_seeds(split, n_seeds, skip), start=skip):
         for level in levels:
             if "none" in sel:
                 out.append(Case(split, seed, (), float(level)))
@@ -394,12 +396,13 @@ def digest(obj: Any) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def draws(split: str, n_seeds: int, families: Iterable[str] = tuple(FAMILIES)) -> list[dict[str, Any]]:
+def draws(split: str, n_seeds: int, families: Iterable[str] = tuple(FAMILIES), skip: int = 0
+          ) -> list[dict[str, Any]]:
     """The first draws (attempt 0) of every family and the base of each seed: no simulation."""
     fams = list(families)
     return [{"seed": s, "base": draw_base(s), "forms": {f: draw_form(s, f) for f in fams},
              "pairs": ["+".join(p) for p in pairs_for(i)]}
-            for i, s in enumerate(split_seeds(split, n_seeds))]
+            for i, s in enumerate(split_seeds(split, n_seeds, skip), start=skip)]
 
 
 def forms_digest(calibrations: Iterable[dict[str, Any]]) -> str:
@@ -412,13 +415,14 @@ def forms_digest(calibrations: Iterable[dict[str, Any]]) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.withheld.generate", description=__doc__.split("\n")[0])
     ap.add_argument("--split", choices=sorted(SPLITS), default="headline")
-    ap.add_argument("--seeds", type=int, default=10, help="first N seeds of the split [10]")
+    ap.add_argument("--seeds", type=int, default=10, help="N seeds of the split [10]")
+    ap.add_argument("--skip", type=int, default=0, help="leave out the split's first K seeds [0]")
     ap.add_argument("--manifest", type=Path, help="write the draws (and with --calibrate the calibrations) here")
     ap.add_argument("--calibrate", action="store_true", help="also calibrate every family at --levels (slow)")
     ap.add_argument("--levels", default="3", help="gap levels in noise levels, comma-separated [3]")
     ap.add_argument("--workers", type=int, default=2, help="worker processes for --calibrate [2]")
     args = ap.parse_args(argv)
-    d = draws(args.split, args.seeds)
+    d = draws(args.split, args.seeds, skip=args.skip)
     out: dict[str, Any] = {"split": args.split, "seeds": [r["seed"] for r in d], "draws": d,
                            "draws_digest": digest(d)}
     print(f"{args.split}: seeds {out['seeds'][0]}..{out['seeds'][-1]} ({len(d)}), draws digest {out['draws_digest']}")

@@ -235,7 +235,9 @@ def main(argv: list[str] | None = None) -> int:
                                  description="Blind withheld-forms benchmark of rig diagnose (issue 15).")
     ap.add_argument("--split", choices=sorted(SPLITS), default="dev",
                     help="dev: seeds to tune on; headline: the README's table, never tuned on [dev]")
-    ap.add_argument("--seeds", type=int, help="first N seeds of the split [3 for dev, 10 for headline]")
+    ap.add_argument("--seeds", type=int, help="N seeds of the split [3 for dev, 10 for headline]")
+    ap.add_argument("--skip", type=int, default=0,
+                    help="leave out the split's first K seeds (fresh seeds for a re-measurement) [0]")
     ap.add_argument("--levels", default="3", help="gap of each effect alone, in noise levels, comma-separated [3]")
     ap.add_argument("--effects", help="subset: family names, A+B, or the groups library, outside, none, pairs [all]")
     ap.add_argument("--pairs-per-seed", type=int, default=PAIRS_PER_SEED,
@@ -254,7 +256,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     n_seeds = args.seeds if args.seeds is not None else (10 if args.split == "headline" else 3)
-    cases = make_cases(args.split, n_seeds, levels, selection, args.pairs_per_seed)
+    try:
+        cases = make_cases(args.split, n_seeds, levels, selection, args.pairs_per_seed, args.skip)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     if not cases:
         print("error: no case selected", file=sys.stderr)
         return 2
@@ -267,7 +273,7 @@ def main(argv: list[str] | None = None) -> int:
     start_workers(preload)
     t0 = time.perf_counter()
     needed = sorted({(c.seed, f, c.level) for c in cases for f in c.effects})
-    print(f"withheld benchmark: split {args.split}, seeds {SPLITS[args.split][0]}.. ({n_seeds}), "
+    print(f"withheld benchmark: split {args.split}, seeds {SPLITS[args.split][args.skip]}.. ({n_seeds}), "
           f"levels {levels}, {len(cases)} cases, {len(needed)} calibrations, {args.workers} workers", file=sys.stderr)
     cal_rows = run_parallel(calibration_job, needed, args.workers, desc="calibrate", unit="effect", preload=preload)
     cals = {(c["seed"], c["family"], c["level"]): c for c in cal_rows}
@@ -279,7 +285,7 @@ def main(argv: list[str] | None = None) -> int:
 
     t = tables(rows)
     fdig = forms_digest(cal_rows)
-    ddig = digest(draws(args.split, n_seeds))
+    ddig = digest(draws(args.split, n_seeds, skip=args.skip))
     print_tables(t)
     failed_cal = [c for c in cal_rows if c.get("strength") is None]
     redrawn = sum(1 for c in cal_rows if (c.get("attempt") or 0) > 0)
@@ -289,7 +295,8 @@ def main(argv: list[str] | None = None) -> int:
     errors = [r for r in rows if r.get("status") != "ok"]
     for r in errors[:10]:
         print(f"  {r['key']}: {r.get('status')}: {r.get('error')}")
-    print(f"Split {args.split}: draws digest {ddig}, forms digest {fdig} (seeds {n_seeds}, levels {levels})")
+    skipped = f", the first {args.skip} skipped" if args.skip else ""
+    print(f"Split {args.split}: draws digest {ddig}, forms digest {fdig} (seeds {n_seeds}{skipped}, levels {levels})")
     manifest = {"split": args.split, "seeds": sorted({c.seed for c in cases}), "levels": levels,
                 "draws_digest": ddig, "forms_digest": fdig,
                 "bases": {str(s): draw_base(s) for s in sorted({c.seed for c in cases})},
@@ -300,7 +307,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {args.manifest}")
     if args.json_out:
         args.json_out.write_text(json.dumps({
-            "meta": {"split": args.split, "seeds": n_seeds, "levels": levels, "effects": sorted(selection),
+            "meta": {"split": args.split, "seeds": n_seeds, "skip": args.skip, "levels": levels,
+                     "effects": sorted(selection),
                      "pairs_per_seed": args.pairs_per_seed, "workers": args.workers, "cold": args.cold,
                      "wall_s": wall, "calibration_s": t_cal, "git": _git()},
             "tables": t, "cases": rows, "manifest": manifest,

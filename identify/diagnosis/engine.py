@@ -261,14 +261,15 @@ def _assessable(cand: Candidate, cols: Columns, scored: _Scored, n_fit: int) -> 
     return None
 
 
-def _visible(cand: Candidate, designs: list[np.ndarray], raws: list[np.ndarray], cols: Columns,
+def _visible(cand: Candidate, designs: list[np.ndarray], raws: list[np.ndarray], cols: list[Columns],
              floor_rms: float | None, unit: str = "um") -> tuple[bool, str]:
-    """Whether the input design can show ``cand`` at all, and a note when it cannot."""
+    """Whether the input design can show ``cand`` at all, and a note when it cannot (each setting's
+    effective ``designs``, ``raws`` columns and their ``cols``, which may differ in number)."""
     bounds = cand.bounds()
     traced = [
         (label, _rms(e[:, j]))
-        for e, raw in zip(designs, raws)
-        for j, label in enumerate(cols.labels)
+        for e, raw, c in zip(designs, raws, cols)
+        for j, label in enumerate(c.labels)
         if _rms(e[:, j]) > ABSORBED * max(_rms(raw[:, j]), 1e-300)
     ]
     if not traced:
@@ -386,7 +387,7 @@ def diagnose(
             not_assessed.append((cand.name, reason))
             continue
         parts = [_effective(base, scored, c) for c in cols_list]
-        visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list[0], floor_rms,
+        visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list, floor_rms,
                                 output_unit)
         designs = [_with_reference(e, a, c, recal) for (e, a, _), c in zip(parts, cols_list)]
         cv = cross_validate(gap, blocks, designs, base.residual, fit_weight)

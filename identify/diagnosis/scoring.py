@@ -153,16 +153,19 @@ def feasible_coefficients(gram: np.ndarray, rhs: np.ndarray, nonneg: np.ndarray)
     coef = np.linalg.solve(g, rhs[..., None])[..., 0]
     if not nonneg.any():
         return coef
+    shape = coef.shape
+    coef, g, rhs = coef.reshape(-1, k), np.broadcast_to(g, shape + (k,)).reshape(-1, k, k), rhs.reshape(-1, k)
     kept = np.ones(coef.shape, bool)
     for _ in range(int(nonneg.sum())):
         bad = (coef < 0) & nonneg & kept
-        if not bad.any():
+        rows = np.flatnonzero(bad.any(axis=1))  # re-solve only the systems that still break a sign
+        if not rows.size:
             break
-        kept &= ~bad
-        both = kept[..., :, None] & kept[..., None, :]
-        gm = np.where(both, g, 0.0) + np.eye(k) * (~kept)[..., None, :]
-        coef = np.linalg.solve(gm, np.where(kept, rhs, 0.0)[..., None])[..., 0]
-    return np.where(kept, coef, 0.0)
+        kept[rows] &= ~bad[rows]
+        kr = kept[rows]
+        gm = np.where(kr[:, :, None] & kr[:, None, :], g[rows], 0.0) + np.eye(k) * (~kr)[:, None, :]
+        coef[rows] = np.linalg.solve(gm, np.where(kr, rhs[rows], 0.0)[..., None])[..., 0]
+    return np.where(kept, coef, 0.0).reshape(shape)
 
 
 @dataclass(frozen=True, eq=False)
