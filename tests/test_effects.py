@@ -199,6 +199,24 @@ def test_a_creep_ratchet_keeps_a_share_of_every_rise_and_fall_by_hand():
         plan_effects([creep], "target")
 
 
+def test_ambient_drift_columns_follow_the_room_at_each_moment_of_the_history():
+    # the memory's past extrema were reached at the room temperature of their moment: the columns are the
+    # output's change per spline coefficient with the input moved only where each spline lives, so on a
+    # small drift they predict its exact effect (a uniform shift of the whole history missed it by 37 %)
+    from identify.effects import Context
+    from identify.effects.ambient_drift import moved_input
+
+    v = 1.0 + 0.75 * V  # off zero volts, where sqrt(v^2 + d) has no slope to linearise
+    run = run_of(np.zeros(v.size), v=v)
+    cols = EFFECTS["ambient_drift"]().columns(Context.of_model(TRUE, [run]), {"form": "shift", "smoothing": 0.0})
+    splines = splines_at(time_knots(run), T)
+    splines = splines - splines[run.rows].mean(axis=0)  # the first run's drift has zero mean
+    c = 1e-3 * np.random.default_rng(0).normal(size=splines.shape[1])
+    x = moved_input(v, splines @ c, "shift")
+    exact = TRUE.predict(x) + TRUE.c_d * (v - x) - TRUE.predict(v)  # the thermal term follows the heater
+    assert np.sqrt(np.mean((cols.values[0] @ c - exact) ** 2)) <= 1e-3 * np.sqrt(np.mean(exact**2))
+
+
 def test_a_model_without_effects_reads_and_writes_as_before():
     d = TRUE.to_dict()
     assert "effects" not in d
