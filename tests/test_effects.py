@@ -217,6 +217,27 @@ def test_ambient_drift_columns_follow_the_room_at_each_moment_of_the_history():
     assert np.sqrt(np.mean((cols.values[0] @ c - exact) ** 2)) <= 1e-3 * np.sqrt(np.mean(exact**2))
 
 
+@pytest.mark.parametrize("k", [-1e-3, 1e-3])
+def test_the_diagnosis_linearises_an_interaction_of_either_sign_in_its_own_direction(k):
+    # the output is not differentiable in k at k = 0 where the input sits on the grid's ends: at the top
+    # wall a pull downwards (k < 0 on a high output) unswitches cells, a push upwards changes nothing.  Each
+    # direction has its own column, so a weak coupling of either sign is its column times |k|
+    from identify.effects import Context
+
+    model = replace(TRUE, effects=(EFFECTS["interaction"]({"k": k, "drive": "voltage", "source": "phase"}),))
+    # on the walls and well inside (near a wall, a finite k can carry the input across it: not linear)
+    v = np.array([4.0, 1.0, 4.0, 0.0, 3.0, 0.5, 4.0, 2.0, 3.0, 1.5, 3.5, 2.5, 0.0, 2.8, 1.2, 3.9, 0.3, 4.0, 0.0])
+    t = np.cumsum(np.full(v.size, 10.0))
+    run = Run("ends", v, np.zeros(v.size), t, np.full(v.size, 10.0), 4, 0.0)
+    y = predict_run(model, run)
+    run = replace(run, outputs=y)
+    exact = y - TRUE.predict(v)
+    cand = make_effect("interaction")
+    col = cand.columns(Context.of_model(TRUE, [run]), {"drive": "voltage", "source": "phase", "sign": np.sign(k)})
+    assert col.nonneg == (True,)
+    np.testing.assert_allclose(col.values[0][:, 0] * abs(k), exact, atol=0.02 * np.abs(exact).max())
+
+
 def test_a_model_without_effects_reads_and_writes_as_before():
     d = TRUE.to_dict()
     assert "effects" not in d

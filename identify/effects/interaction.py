@@ -74,7 +74,7 @@ class Interaction(Effect):
         return needs_reversals(runs, "mean-field feedback shows only where the input turns back")
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"drive": d, "source": s} for d in DRIVES for s in SOURCES]
+        return [{"drive": d, "source": s, "sign": g} for d in DRIVES for s in SOURCES for g in (1.0, -1.0)]
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
         return [{"drive": d, "source": o, "start": s} for d in DRIVES for o in SOURCES for s in STARTS]
@@ -97,7 +97,13 @@ class Interaction(Effect):
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         drive = self.drive if self.fitted else setting.get("drive", "voltage")
         source = self.source if self.fitted else setting.get("source", "output")
-        dk = STEP * _scale(ctx, drive)
+        # unfitted (the diagnosis): a one-sided derivative in the setting's direction, its coefficient >= 0.
+        # At the grid's ends the output is not differentiable in k: at the top wall a feedback that pushes
+        # the input further up changes nothing (it saturates), one that pulls it down unswitches cells; a
+        # derivative taken upwards only left every k < 0 out of the family
+        sign = 1.0 if self.fitted else float(setting.get("sign", 1.0))
+        unit = STEP * _scale(ctx, drive)
+        dk = sign * unit
         values = []
         for i, run in enumerate(ctx.runs):
             x = ctx.inputs[i]
@@ -105,13 +111,14 @@ class Interaction(Effect):
             # the input before this effect: the current one minus the current feedback (in its own units)
             before = shifted(x, -self.k * fb, drive) if self.k else x
             moved = shifted(before, (self.k + dk) * fb, drive)
-            values.append(((ctx.response(i, moved) - ctx.response(i, x)) / dk)[:, None])
-        return single_columns(ctx.runs, values, ("k",))
+            values.append(((ctx.response(i, moved) - ctx.response(i, x)) / unit)[:, None])
+        return single_columns(ctx.runs, values, ("k",), (not self.fitted,))
 
     def with_fit(self, ctx, setting, coef, cols) -> "Interaction":
         drive = self.drive if self.fitted else setting.get("drive", "voltage")
         source = self.source if self.fitted else setting.get("source", "output")
-        return Interaction({"k": float(self.k + coef[0]), "drive": drive, "source": source})
+        sign = 1.0 if self.fitted else float(setting.get("sign", 1.0))
+        return Interaction({"k": float(self.k + sign * coef[0]), "drive": drive, "source": source})
 
 
 def felt(output: np.ndarray, source: str, mu0: float, c_d: float, thermal: np.ndarray) -> np.ndarray:
