@@ -67,7 +67,7 @@ TRUTHS = {
     "reversible": {"walls": GRID.walls.tolist(),
                    "increments_um": (0.2 * np.sin(np.arange(GRID.levels + 2))).tolist()},
     "interaction": {"k": 0.02, "drive": "voltage"},
-    "first_point": {"coefficients_um": [0.01, 0.02, -0.005, 0.03, -0.01, 0.004, 0.02], "decay": 0.6,
+    "first_point": {"coefficients_um": [0.01, 0.02, -0.005, 0.03, -0.01, 0.004, 0.02, 0.006, -0.015], "decay": 0.6,
                     "cell": GRID.step},
 }
 
@@ -388,7 +388,8 @@ def test_a_first_point_offset_belongs_to_a_reading_not_to_a_point_applied_withou
     after = terms[:, 3:]
     assert not np.any(after[4:6])      # no terms at the unread turn, nor persisting from it
     assert np.all(after[6] != 0)       # the turn at 0.5 V is read at 1.0 V: its first point carries them
-    np.testing.assert_allclose(after[6], [1.0, 1.0, 0.5, 1.0 - np.exp(-1.0)])
+    sat = 1.0 - np.exp(-1.0)  # a step of 0.5 V up, on a cell of 0.5 V: 1, d, s, d sat, |s|, sat
+    np.testing.assert_allclose(after[6], [1.0, 1.0, 0.5, sat, 0.5, sat])
     np.testing.assert_allclose(after[7], 0.6 * after[6])
 
 

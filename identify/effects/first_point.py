@@ -8,11 +8,13 @@ offset (um) that may depend on the direction and on the size of a step:
 
 * at the reversal point: ``a0 + a1 sign(E) + a2 E``, ``E`` the excursion
   (input units, signed) that ended there;
-* at the first point after it: ``b0 + b1 d + b2 s + b3 d sat(|s|)``, ``s`` the
-  reversing step (signed, input units), ``d`` its direction and ``sat`` a
-  saturating function of its size (``1 - exp(-|s| / h)``, ``h`` the
-  grid's cell) -- optionally persisting over the next points, decaying
-  geometrically by a ratio ``decay`` per point (a setting).
+* at the first point after it: ``(b0 + b1 d) + (b4 + b2 d) |s| + (b5 + b3 d)
+  sat(|s|)``, ``s`` the reversing step (signed, input units), ``d`` its
+  direction and ``sat`` a saturating function of its size (``1 - exp(-|s| /
+  h)``, ``h`` the grid's cell): a size that is constant, linear in the step
+  or saturating, each of a fixed sign, of the new direction's sign, or a
+  mix (different up and down) -- optionally persisting over the next points,
+  decaying geometrically by a ratio ``decay`` per point (a setting).
 
 Whether the reversal point itself has an offset is a setting too (``at``):
 a run whose reversal readings carry none should not pay for three terms.
@@ -33,7 +35,7 @@ from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite, finite_array, needs_reversals, single_columns
 
 LABELS = ("at_offset_um", "at_direction_um", "at_um_per_V", "after_offset_um", "after_direction_um",
-          "after_um_per_V", "after_saturating_um")
+          "after_um_per_V", "after_saturating_um", "after_size_um_per_V", "after_saturating_size_um")
 #: Decay ratios of the after-reversal offset over the following points (a setting).
 DECAYS = (0.0, 0.3, 0.6, 0.85)
 #: Points after the first over which a persisting offset is followed.
@@ -41,9 +43,10 @@ PERSIST = 4
 
 
 def indicators(run: Run, decay: float = 0.0, cell: float = 1.0) -> np.ndarray:
-    """``(n, 7)``: the terms above at every point (zero away from reversals); ``cell`` the saturation's scale."""
+    """``(n, 9)``: the terms above at every point (zero away from reversals), in :data:`LABELS`' order;
+    ``cell`` the saturation's scale."""
     h = run.history
-    out = np.zeros((run.n, 7))
+    out = np.zeros((run.n, len(LABELS)))
     e = h.excursion_V
     out_at = np.stack([np.ones_like(e), np.sign(e), e], axis=1)
     np.add.at(out, (h.reversal_index[:, None], np.arange(3)[None, :]), out_at)
@@ -53,11 +56,12 @@ def indicators(run: Run, decay: float = 0.0, cell: float = 1.0) -> np.ndarray:
     turn, rev = h.turn_index[read], h.reversal_index[read]
     step = run.inputs[turn] - run.inputs[rev]
     d = np.sign(step)
-    after = np.stack([np.ones_like(step), d, step, d * (1.0 - np.exp(-np.abs(step) / cell))], axis=1)
+    sat = 1.0 - np.exp(-np.abs(step) / cell)
+    after = np.stack([np.ones_like(step), d, step, d * sat, np.abs(step), sat], axis=1)
     for j in range(PERSIST + 1 if decay else 1):
         idx = turn + j
         ok = idx < run.n
-        np.add.at(out, (idx[ok][:, None], 3 + np.arange(4)[None, :]), (decay ** j) * after[ok])
+        np.add.at(out, (idx[ok][:, None], 3 + np.arange(after.shape[1])[None, :]), (decay ** j) * after[ok])
     return out
 
 
@@ -91,8 +95,8 @@ class FirstPoint(Effect):
         decay = finite(params, "decay", self.name) if "decay" in params else 0.0
         cell = finite(params, "cell", self.name) if "cell" in params else 1.0
         coef = finite_array(params, "coefficients_um", self.name)
-        if coef.size == 6:  # written before the saturating term
-            coef = np.append(coef, 0.0)
+        if coef.size in (6, 7):  # written before the saturating term, or before the unsigned sizes
+            coef = np.append(coef, np.zeros(len(LABELS) - coef.size))
         if coef.size != len(LABELS) or cell <= 0:
             from ..errors import IdentifyError
 
