@@ -183,22 +183,6 @@ def test_an_excursion_creep_turns_with_the_output_that_drives_it_by_hand():
     np.testing.assert_allclose(excursion_steps(run, u2, 0.0), np.diff(u2, prepend=0.0), atol=1e-12)
 
 
-def test_a_creep_ratchet_keeps_a_share_of_every_rise_and_fall_by_hand():
-    from identify.inverse.effects import NotInvertible, plan_effects
-
-    params = {"drive": "output", "time_constants_s": [100.0], "weights": [0.0], "ratchet": [0.1, 0.3]}
-    creep = EFFECTS["creep"](params)
-    run = Run("r", np.array([1.0, 2.0, 1.5]), np.zeros(3), np.array([10.0, 20.0, 30.0]), np.full(3, 10.0), 4, 0.0)
-    u = np.array([2.0, 5.0, 4.0])
-    # from u0 = 1: rises 1 and 3, then a fall of 1
-    np.testing.assert_allclose(creep.contribution(run, u, u, (1.0, 1.0)), [0.1, 0.4, 0.4 - 0.3])
-    assert creep.report()["ratchet"] == {"up": 0.1, "down": 0.3}
-    with pytest.raises(IdentifyError, match="ratchet"):
-        EFFECTS["creep"]({**params, "drive": "excursion"})
-    with pytest.raises(NotInvertible, match="ratchet"):
-        plan_effects([creep], "target")
-
-
 def test_ambient_drift_columns_follow_the_room_at_each_moment_of_the_history():
     # the memory's past extrema were reached at the room temperature of their moment: the columns are the
     # output's change per spline coefficient with the input moved only where each spline lives, so on a

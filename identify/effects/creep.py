@@ -24,20 +24,11 @@ and one sign ``s`` (a setting): it decays monotonically whatever its shape
 -- a single exponential, a stretched exponential, a power law, logarithmic
 creep over the spectrum's span (any completely monotone kernel is such a
 mixture), or logarithmic and Andrade creep that keep growing over the
-run (their growth over hours is a sum of long relaxations).  A roughness
-penalty on the spectrum over ``log tau`` (its weight a setting, chosen by
-cross-validation in the diagnosis) keeps the family from paying for its
-flexibility with noise.  Each relaxation is summed recursively (one pass
-per time constant), so long runs cost ``O(n)``.
-
-**Ratchet** (optional ``ratchet = [up, down]``): a share of every rise and
-of every fall of the drive that never relaxes back.  With equal shares it
-is a rescaled output, which the density absorbs; with unequal ones -- a
-creep larger after rises than after falls, or growing faster than the step
--- it accumulates with the output's travel and wanders over a run like a
-drift, yet is fixed by the history.  The diagnosis's family holds it for
-the superposed drives (:data:`RATCHET_DRIVES`); ``rig identify --with
-creep`` does not fit it (its inverse would not be affine in the step).
+run (their growth over hours is a sum of long relaxations).  A roughness penalty on the spectrum over ``log tau`` (its
+weight a setting, chosen by cross-validation in the diagnosis) keeps the
+family from paying for its flexibility with noise.  Each relaxation is
+summed recursively (one pass per time constant), so long runs cost
+``O(n)``.
 """
 
 from __future__ import annotations
@@ -59,8 +50,6 @@ TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(2.0, 20000.0, 9))
 DRIVES = ("reversal", "output", "phase", "excursion", "phase_excursion")
 #: The drives that follow the phase-transition part of the output (without the bias and the thermal term).
 PHASE_DRIVES = ("phase", "phase_excursion")
-#: The drives a ratchet (a share of every rise or fall that never relaxes back) is fitted with in the diagnosis.
-RATCHET_DRIVES = ("reversal", "output", "phase")
 #: The drives that follow an excursion since the driving output last turned back.
 EXCURSION_DRIVES = ("excursion", "phase_excursion")
 #: Weights of the spectrum's roughness penalty tried by the diagnosis (relative to the data): one, light
@@ -127,26 +116,22 @@ def excursion_steps(run: Run, u: np.ndarray, u0: float | None = None) -> np.ndar
     return output_steps(excursion, 0.0)
 
 
-def driving_steps(run: Run, drive: str, u: np.ndarray | None = None, u0: float | None = None) -> np.ndarray:
-    """``(n,)``: the steps that start a relaxation at every point of ``run``; ``u`` the output that drives
+def relaxations(run: Run, taus: np.ndarray, drive: str = "reversal", u: np.ndarray | None = None,
+                u0: float | None = None) -> np.ndarray:
+    """``(n, J)``: the relaxation columns of ``run`` for each time constant; ``u`` the output that drives
     it (``output``, ``excursion``: the model's; ``phase``, ``phase_excursion``: its phase-transition part)
     and ``u0`` its value at the run's initial state (the sequencer's saturation before the first point:
     on an identification run the rise from it is the largest change of the run, and a slow kernel still
-    relaxes from it hours later).  :func:`relax` turns them into the relaxation columns."""
+    relaxes from it hours later)."""
     if drive == "reversal":
-        return reversal_steps(run)
-    if drive not in DRIVES:
+        steps = reversal_steps(run)
+    elif drive in DRIVES:
+        if u is None:
+            raise IdentifyError(f"creep driven by the {drive} needs the model's output")
+        steps = excursion_steps(run, u, u0) if drive in EXCURSION_DRIVES else output_steps(u, u0)
+    else:
         raise IdentifyError(f"creep drive must be one of {', '.join(DRIVES)}, got {drive!r}")
-    if u is None:
-        raise IdentifyError(f"creep driven by the {drive} needs the model's output")
-    return excursion_steps(run, u, u0) if drive in EXCURSION_DRIVES else output_steps(u, u0)
-
-
-def ratchets(steps: np.ndarray) -> np.ndarray:
-    """``(n, 2)``: the rises and the falls of ``steps`` ``(n,)`` summed up to every point -- what stays of
-    each when a share of every rise (first column) and of every fall (second) never relaxes back."""
-    steps = np.asarray(steps, dtype=float)
-    return np.stack([np.cumsum(np.maximum(steps, 0.0)), np.cumsum(np.minimum(steps, 0.0))], axis=1)
+    return relax(run.t_s, run.setpoint_t, steps, taus)
 
 
 def _driver(ctx: Context, i: int, drive: str) -> np.ndarray:
@@ -182,14 +167,7 @@ class Creep(Effect):
         if taus.size != weights.size or taus.size == 0 or np.any(taus <= 0) or drive not in DRIVES:
             raise IdentifyError(f"effect {self.name!r}: time_constants_s (> 0) and weights must match, drive one of "
                                 f"{', '.join(DRIVES)}")
-        out = {"drive": drive, "time_constants_s": taus.tolist(), "weights": weights.tolist()}
-        if "ratchet" in params:
-            ratchet = finite_array(params, "ratchet", self.name)
-            if ratchet.size != 2 or drive not in RATCHET_DRIVES:
-                raise IdentifyError(f"effect {self.name!r}: ratchet is [share of a rise, share of a fall] that "
-                                    f"stays, for the drives {', '.join(RATCHET_DRIVES)}")
-            out["ratchet"] = ratchet.tolist()
-        return out
+        return {"drive": drive, "time_constants_s": taus.tolist(), "weights": weights.tolist()}
 
     @property
     def needs_output(self) -> bool:
@@ -202,8 +180,7 @@ class Creep(Effect):
         return self.applicable(runs) or needs_reversals(runs, "it relaxes after the output changes direction")
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"drive": d, "sign": s, "smoothing": w, "ratchet": float(d in RATCHET_DRIVES)}
-                for d in DRIVES for s in (1.0, -1.0) for w in SMOOTHING]
+        return [{"drive": d, "sign": s, "smoothing": w} for d in DRIVES for s in (1.0, -1.0) for w in SMOOTHING]
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
         return [{"drive": d, "sign": s, "smoothing": FIT_SMOOTHING} for d in DRIVES for s in (1.0, -1.0)]
@@ -211,48 +188,29 @@ class Creep(Effect):
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         taus = np.asarray(TIME_CONSTANTS_S)
         drive = setting.get("drive", "reversal")
-        ratchet = bool(setting.get("ratchet", 0.0))
-        values = []
-        for i, r in enumerate(ctx.runs):
-            steps = driving_steps(r, drive, _driver(ctx, i, drive) if drive != "reversal" else None,
-                                  _start(ctx, i, drive))
-            v = setting["sign"] * relax(r.t_s, r.setpoint_t, steps, taus)
-            values.append(np.hstack([v, ratchets(steps)]) if ratchet else v)
+        values = [setting["sign"] * relaxations(r, taus, drive, _driver(ctx, i, drive), _start(ctx, i, drive))
+                  for i, r in enumerate(ctx.runs)]
         unit = "um_per_V" if drive == "reversal" else "fraction"  # of the input excursion, or of the change
-        labels = tuple(f"{unit}_at_{tau:.3g}s" for tau in taus) + (("ratchet_up", "ratchet_down") if ratchet else ())
-        k, j = taus.size, len(labels)
-        rough = np.zeros((j, j))
-        rough[:k, :k] = _rough(k)
-        return Columns(tuple(values), labels, (True,) * k + (False,) * (j - k), (-1,) * j, rough,
-                       setting.get("smoothing", 0.0))
+        labels = tuple(f"{unit}_at_{tau:.3g}s" for tau in taus)
+        k = taus.size
+        return Columns(tuple(values), labels, (True,) * k, (-1,) * k, _rough(k), setting.get("smoothing", 0.0))
 
     def with_fit(self, ctx, setting, coef, cols) -> "Creep":
-        coef = np.asarray(coef, dtype=float)
-        k = len(TIME_CONSTANTS_S)
-        params = {"drive": setting.get("drive", "reversal"), "time_constants_s": list(TIME_CONSTANTS_S),
-                  "weights": (setting["sign"] * coef[:k]).tolist()}
-        if coef.size > k:
-            params["ratchet"] = coef[k:k + 2].tolist()
-        return Creep(params)
+        w = setting["sign"] * np.asarray(coef, dtype=float)
+        return Creep({"drive": setting.get("drive", "reversal"), "time_constants_s": list(TIME_CONSTANTS_S),
+                      "weights": w.tolist()})
 
     def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
                      start: tuple[float, float] | None = None) -> np.ndarray:
         p = self.params
         driver = phase if p["drive"] in PHASE_DRIVES else u
         u0 = None if start is None else start[1 if p["drive"] in PHASE_DRIVES else 0]
-        steps = driving_steps(run, p["drive"], driver, u0)
-        out = relax(run.t_s, run.setpoint_t, steps, np.asarray(p["time_constants_s"])) @ np.asarray(p["weights"])
-        if p.get("ratchet"):
-            out = out + ratchets(steps) @ np.asarray(p["ratchet"])
-        return out
+        return relaxations(run, np.asarray(p["time_constants_s"]), p["drive"], driver, u0) @ np.asarray(p["weights"])
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
         w = np.asarray(self.params["weights"])
         taus = np.asarray(self.params["time_constants_s"])
         mean_tau = float(np.sum(np.abs(w) * taus) / max(float(np.sum(np.abs(w))), 1e-300))
         unit = "um_per_V" if self.params["drive"] == "reversal" else "fraction"
-        out = {"drive": self.params["drive"], unit: float(w.sum()), "mean_time_constant_s": mean_tau,
-               "spectrum": {f"at_{t:.3g}s": float(x) for t, x in zip(taus, w)}}
-        if "ratchet" in self.params:
-            out["ratchet"] = {"up": float(self.params["ratchet"][0]), "down": float(self.params["ratchet"][1])}
-        return out
+        return {"drive": self.params["drive"], unit: float(w.sum()), "mean_time_constant_s": mean_tau,
+                "spectrum": {f"at_{t:.3g}s": float(x) for t, x in zip(taus, w)}}

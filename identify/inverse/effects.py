@@ -260,9 +260,6 @@ def plan_effects(effects: tuple[Effect, ...] | list[Effect], run_name: str) -> E
         elif e.name in STATIC_DEGREE and e.stage == OUTPUT:
             plan.static.append(e)
         elif e.name == "creep" and e.stage == OUTPUT:
-            if any((e.params or {}).get("ratchet") or ()):
-                raise _refuse(e, "its ratchet (a share of every rise or fall that stays) makes its value at a step "
-                                 "depend on the step's direction in the output, not affine in the step")
             if (e.params or {}).get("drive") in ("excursion", "phase_excursion"):
                 raise _refuse(e, "driven by the excursion since the last reversal, its value at a reversal point "
                                  "depends on the set-point after it (which makes the point a reversal); an inversion "
