@@ -237,3 +237,15 @@ def test_verdict_reading_and_scoring_hand_cases():
     assert score(row("outside", ["backlash"], amb)) == {"ok": True, "wrong": False}
     assert score(row("outside", ["backlash"], old)) == {"ok": False, "wrong": True}
     assert score(row("none", [], read_verdict({"verdict": {"status": "no_gap", "effect": None}})))["ok"]
+
+
+def test_the_fresh_headline_seeds_are_the_ones_in_the_readme_and_keep_their_place():
+    m = re.search(r"seeds 900011-900020\n  \(`--skip 10`\): `([0-9a-f]{16})`", README.read_text(encoding="utf-8"))
+    assert m, "the README records the fresh headline seeds' draws digest"
+    assert G.digest(G.draws("headline", 10, skip=10)) == m.group(1)
+    # a skipped seed keeps its place in the split: the same seed and the same pairs as without skipping
+    skipped = G.make_cases("headline", 1, selection=G.parse_selection("pairs"), skip=10)
+    full = [c for c in G.make_cases("headline", 11, selection=G.parse_selection("pairs")) if c.seed == 900011]
+    assert [c.effects for c in skipped] == [c.effects for c in full] and skipped[0].seed == 900011
+    with pytest.raises(ValueError):
+        G.split_seeds("headline", 1, skip=len(G.SPLITS["headline"]))
