@@ -85,6 +85,19 @@ def make_blocks(points_per_run: list[int]) -> Blocks:
     return Blocks(np.concatenate(index) if index else np.zeros(0, int), np.asarray(runs), np.asarray(sizes))
 
 
+def _ridged(gram: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The normal equations with :data:`RIDGE` times the mean diagonal added, the right-hand side (as
+    arrays), and their unconstrained solution (zeros when there is no coefficient)."""
+    gram = np.asarray(gram, dtype=float)
+    rhs = np.asarray(rhs, dtype=float)
+    k = rhs.shape[-1]
+    if k == 0:
+        return gram, rhs, np.zeros(rhs.shape)
+    ridge = RIDGE * np.trace(gram, axis1=-2, axis2=-1) / k + 1e-300
+    g = gram + ridge[..., None, None] * np.eye(k)
+    return g, rhs, np.linalg.solve(g, rhs[..., None])[..., 0]
+
+
 def solve_coefficients(gram: np.ndarray, rhs: np.ndarray, nonneg: np.ndarray) -> np.ndarray:
     """``argmin b^T G b - 2 b^T r`` (least squares from its normal equations), ``b[j] >= 0`` where
     ``nonneg[j]``; batched over leading axes of ``gram`` ``(..., k, k)`` and ``rhs`` ``(..., k)``.
@@ -94,14 +107,10 @@ def solve_coefficients(gram: np.ndarray, rhs: np.ndarray, nonneg: np.ndarray) ->
     clipped at zero (exact for one coefficient); several are handled by an
     active-set pass, one system at a time.
     """
-    gram = np.asarray(gram, dtype=float)
-    rhs = np.asarray(rhs, dtype=float)
+    g, rhs, coef = _ridged(gram, rhs)
     k = rhs.shape[-1]
     if k == 0:
-        return np.zeros(rhs.shape)
-    ridge = RIDGE * np.trace(gram, axis1=-2, axis2=-1) / k + 1e-300
-    g = gram + ridge[..., None, None] * np.eye(k)
-    coef = np.linalg.solve(g, rhs[..., None])[..., 0]
+        return coef
     nonneg = np.asarray(nonneg, dtype=bool)
     if not nonneg.any():
         return coef
@@ -142,16 +151,10 @@ def feasible_coefficients(gram: np.ndarray, rhs: np.ndarray, nonneg: np.ndarray)
     and honest where an unconstrained one is not: without the constraint the two signs of a
     relaxation spectrum fit alike, and the choice between them was a coin toss.
     """
-    gram = np.asarray(gram, dtype=float)
-    rhs = np.asarray(rhs, dtype=float)
+    g, rhs, coef = _ridged(gram, rhs)
     k = rhs.shape[-1]
     nonneg = np.asarray(nonneg, dtype=bool)
-    if k == 0:
-        return np.zeros(rhs.shape)
-    ridge = RIDGE * np.trace(gram, axis1=-2, axis2=-1) / k + 1e-300
-    g = gram + ridge[..., None, None] * np.eye(k)
-    coef = np.linalg.solve(g, rhs[..., None])[..., 0]
-    if not nonneg.any():
+    if k == 0 or not nonneg.any():
         return coef
     shape = coef.shape
     coef, g, rhs = coef.reshape(-1, k), np.broadcast_to(g, shape + (k,)).reshape(-1, k, k), rhs.reshape(-1, k)

@@ -101,7 +101,7 @@ class Interaction(Effect):
         # At the grid's ends the output is not differentiable in k: at the top wall a feedback that pushes
         # the input further up changes nothing (it saturates), one that pulls it down unswitches cells; a
         # derivative taken upwards only left every k < 0 out of the family
-        sign = 1.0 if self.fitted else float(setting.get("sign", 1.0))
+        sign = self._direction(setting)
         unit = STEP * _scale(ctx, drive)
         dk = sign * unit
         values = []
@@ -117,8 +117,13 @@ class Interaction(Effect):
     def with_fit(self, ctx, setting, coef, cols) -> "Interaction":
         drive = self.drive if self.fitted else setting.get("drive", "voltage")
         source = self.source if self.fitted else setting.get("source", "output")
-        sign = 1.0 if self.fitted else float(setting.get("sign", 1.0))
-        return Interaction({"k": float(self.k + sign * coef[0]), "drive": drive, "source": source})
+        return Interaction({"k": float(self.k + self._direction(setting) * coef[0]), "drive": drive,
+                            "source": source})
+
+    def _direction(self, setting: dict[str, float]) -> float:
+        """The direction of ``k`` a column is taken in: the setting's sign unfitted (the diagnosis), else up
+        (a fitted ``k`` is refined both ways by Gauss--Newton)."""
+        return 1.0 if self.fitted else float(setting.get("sign", 1.0))
 
 
 def felt(output: np.ndarray, source: str, mu0: float, c_d: float, thermal: np.ndarray) -> np.ndarray:
