@@ -90,7 +90,7 @@ def output_steps(u: np.ndarray, u0: float | None = None) -> np.ndarray:
     return np.diff(np.asarray(u, dtype=float), prepend=(float(u[0]) if u0 is None else u0) if len(u) else 0.0)
 
 
-def excursion_steps(run: Run, u: np.ndarray, u0: float | None = None) -> np.ndarray:
+def excursion_steps(u: np.ndarray, u0: float | None = None) -> np.ndarray:
     """``(n,)``: the change into every point of the output's excursion since the output last turned back
     (before its first turn: since the initial state, output ``u0``; None: since the first point).
 
@@ -128,7 +128,7 @@ def relaxations(run: Run, taus: np.ndarray, drive: str = "reversal", u: np.ndarr
     elif drive in DRIVES:
         if u is None:
             raise IdentifyError(f"creep driven by the {drive} needs the model's output")
-        steps = excursion_steps(run, u, u0) if drive in EXCURSION_DRIVES else output_steps(u, u0)
+        steps = excursion_steps(u, u0) if drive in EXCURSION_DRIVES else output_steps(u, u0)
     else:
         raise IdentifyError(f"creep drive must be one of {', '.join(DRIVES)}, got {drive!r}")
     return relax(run.t_s, run.setpoint_t, steps, taus)
