@@ -21,8 +21,8 @@ runs on different grids) are listed in :attr:`Diagnosis.warnings` or
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable
 
 import numpy as np
 
@@ -223,6 +223,32 @@ def _effective(base: BaseFit, scored: _Scored, cols: Columns) -> tuple[np.ndarra
     return c_check - scored.carry @ c_fit, base.unabsorbed(c_fit), np.vstack([c_check, c_fit])
 
 
+def _columns(cand: Candidate, ctx: Context, settings: list[dict[str, float]]) -> list[Columns]:
+    """``cand``'s columns at each setting, computed once for settings that differ only in the roughness
+    weight: ``smoothing`` reaches the columns only as :attr:`Columns.smoothing` (a drift's six weights
+    share one set of splines -- for the ambient drift, a secant per spline coefficient)."""
+    done: dict[tuple, Columns] = {}
+    out = []
+    for s in settings:
+        key = tuple(sorted((k, v) for k, v in s.items() if k != "smoothing"))
+        if key not in done:
+            done[key] = cand.columns(ctx, s)
+        out.append(replace(done[key], smoothing=float(s.get("smoothing", 0.0))))
+    return out
+
+
+def _shared(cols_list: list[Columns], make: Callable[[Columns], Any]) -> list:
+    """``make(cols)`` for each entry of ``cols_list``, computed once for entries that share their column
+    values (those :func:`_columns` computed once)."""
+    done: dict[int, Any] = {}
+    out = []
+    for c in cols_list:
+        if id(c.values) not in done:
+            done[id(c.values)] = make(c)
+        out.append(done[id(c.values)])
+    return out
+
+
 def _with_reference(e: np.ndarray, a: np.ndarray, cols: Columns, recal: np.ndarray) -> Design:
     """A candidate's design with the reference's re-estimated directions appended (no fit-run part)."""
     k, r = cols.k, recal.shape[1]
@@ -381,12 +407,12 @@ def diagnose(
             not_assessed.append((cand.name, f"not applicable: {why_not}"))
             continue
         grid_settings = cand.settings_grid()
-        cols_list = [cand.columns(ctx, s) for s in grid_settings]
+        cols_list = _columns(cand, ctx, grid_settings)
         reason = _assessable(cand, cols_list[0], scored, n_fit)
         if reason is not None:
             not_assessed.append((cand.name, reason))
             continue
-        parts = [_effective(base, scored, c) for c in cols_list]
+        parts = _shared(cols_list, lambda c: _effective(base, scored, c))
         visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list, floor_rms,
                                 output_unit)
         designs = [_with_reference(e, a, c, recal) for (e, a, _), c in zip(parts, cols_list)]
