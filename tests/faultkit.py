@@ -1,7 +1,8 @@
 """Helpers for the fault-injection tests: ``rig serve-sim`` as a real process on loopback, with its
 journal file (what the heater saw), that a test can kill, stop, continue and restart on the same port.
 
-Every wait is bounded in time; every process is reaped."""
+Every wait is bounded in time; every process is reaped.  Also :func:`sensor_dies_after`, the same PSD
+fault for a run in this process."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ import time
 from pathlib import Path
 
 from drivers.sim.journal import read_journal
+from rig.acquisition import Hooks
 
 from .benchsim import FAST_LINK, HEADER
 
@@ -23,6 +25,16 @@ FAST_SIM = "[sim]\ntime_constant_s = 0.002\npsd_noise_V = 0.0\nlevels = 8\n"
 
 #: The register map served and used (the simulated bench's default, with its restart marker).
 FAULT_MAP = "[modbus.setpoint]\naddress = 0\n[modbus.psd]\naddress = 0\n"
+
+
+def sensor_dies_after(rig, index: int) -> Hooks:
+    """Hooks for ``acquire``/``resume`` on an in-process simulated ``rig``: once point ``index`` is recorded
+    the PSD reads NaN (for the next 100 readings), so the run stops with ``SensorError`` right after it."""
+    def inject(result):
+        if result.index == index:
+            rig.device.faults.nan_readings = 100
+
+    return Hooks(on_sample=inject)
 
 
 def rig_exe() -> str:

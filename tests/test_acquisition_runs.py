@@ -26,6 +26,8 @@ from rig.acquisition import (
 )
 from sessions import DataFileError, ExcitationRecord, SampleFlag, SessionWriter, Status, read_session
 
+from .faultkit import sensor_dies_after
+
 LEVELS = 8  # 38 points with the thermal point
 #: 40 thermal time constants: the simulated device is exactly at rest (bit for bit).
 SETTLED = DwellSettings(FixedDwell(20.0), Transit(0.0), readings=2)
@@ -63,12 +65,8 @@ def fail_after(path, k, measure=None, **sim):
     """A run into ``path`` that a PSD fault stops at the first reading after point ``k`` is recorded;
     checks that it raised, left the heater at 0 V, and returns the number of points recorded."""
     with open_rig(config(**sim)) as rig:
-        def inject(result):
-            if result.index == k:
-                rig.device.faults.nan_readings = 100
-
         with pytest.raises(SensorError):
-            acquire(rig, record(rig, measure, 3), path, hooks=Hooks(on_sample=inject))
+            acquire(rig, record(rig, measure, 3), path, hooks=sensor_dies_after(rig, k))
         assert rig.device.applied_voltage == 0.0
         assert rig.device.setpoints[-1][1] == 0.0
     return read_session(path).n_samples
@@ -277,12 +275,8 @@ def test_resume_keeps_a_per_point_dwell_schedule(tmp_path):
         acquire(rig, record, ref)
     path = tmp_path / "cut.h5"
     with open_rig(config()) as rig:
-        def inject(result):
-            if result.index == 2:
-                rig.device.faults.nan_readings = 100
-
         with pytest.raises(SensorError):
-            acquire(rig, record, path, hooks=Hooks(on_sample=inject))
+            acquire(rig, record, path, hooks=sensor_dies_after(rig, 2))
     with open_rig(config()) as rig:
         resume(rig, path)
     a, b = read_session(ref), read_session(path)

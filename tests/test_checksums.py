@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 
 from drivers import SensorError, default_config, open_rig
-from rig.acquisition import DwellSettings, FixedDwell, Hooks, acquire, make_record, sequence_record
+from rig.acquisition import DwellSettings, FixedDwell, acquire, make_record, sequence_record
 from sessions import DataFileError, read_session
 
 from .cli import assert_one_line_error, rig_here
 from .conftest import digest
+from .faultkit import sensor_dies_after
 
 
 def flip_bit(path, dataset: str, index: int, bit: int) -> tuple[float, float]:
@@ -67,13 +68,9 @@ def test_a_flipped_bit_in_the_plan_of_an_interrupted_run_stops_resume(tmp_path):
     path = tmp_path / "cut.h5"
     settings = DwellSettings(FixedDwell(20.0), readings=1)
     with open_rig(default_config(levels=8, psd_noise_V=0.0)) as rig:
-        def fault(result):
-            if result.index == 5:
-                rig.device.faults.nan_readings = 100
-
         with pytest.raises(SensorError):
             acquire(rig, make_record(sequence_record("damped", rig.heater.window, levels=8), settings), path,
-                    hooks=Hooks(on_sample=fault))
+                    hooks=sensor_dies_after(rig, 5))
     s = read_session(path)
     later = [k for k in range(s.n_samples, s.excitation.n_points) if s.excitation.inputs[k] == 2.25]
     assert later, s.excitation.inputs

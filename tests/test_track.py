@@ -12,14 +12,14 @@ from drivers import SensorError, default_config, open_rig
 from drivers.clock import VirtualClock
 from drivers.sim import SimParams, SimVO2
 from identify import Grid, PreisachModel
-from rig.acquisition import Hooks, acquire, resume
+from rig.acquisition import acquire, resume
 from rig.tracking.run import plan_track, setpoints_for
 from rig.tracking.source import load_source
 from sessions import TRACKING_COLUMNS, Status, read_session
 from sessions.targets import Targets, read_targets, write_targets
 
 from .cli import assert_one_line_error, rig_here
-from .faultkit import SimServer
+from .faultkit import SimServer, sensor_dies_after
 
 #: The rms noise of one recorded measurement on the default simulated device (2 mV x 5 um/V / sqrt(4)).
 SIGMA = 0.005
@@ -220,12 +220,8 @@ def test_a_resumed_tracking_run_continues_exactly_as_an_uninterrupted_one(tmp_pa
                 setpoints=setpoints_for(plan, off, "ref"), sample_columns=cols, models=(src.record,))
     cut = tmp_path / "cut.h5"
     with open_rig(cfg) as rig:
-        def inject(result):
-            if result.index == 9:
-                rig.device.faults.nan_readings = 100
-
         with pytest.raises(SensorError):
-            acquire(rig, plan.record, cut, settings=plan.settings, hooks=Hooks(on_sample=inject),
+            acquire(rig, plan.record, cut, settings=plan.settings, hooks=sensor_dies_after(rig, 9),
                     setpoints=setpoints_for(plan, off, "cut"), sample_columns=cols, models=(src.record,))
     assert read_session(cut).n_samples == 10
     with open_rig(cfg) as rig:
@@ -247,12 +243,8 @@ def test_rig_track_resume_continues_an_interrupted_run_from_the_command_line(tmp
     src, plan = _plan(model_path, tmp_path, "pi")
     cut = tmp_path / "cut.h5"
     with open_rig(default_config()) as rig:
-        def inject(result):
-            if result.index == 5:
-                rig.device.faults.nan_readings = 100
-
         with pytest.raises(SensorError):
-            acquire(rig, plan.record, cut, settings=plan.settings, hooks=Hooks(on_sample=inject),
+            acquire(rig, plan.record, cut, settings=plan.settings, hooks=sensor_dies_after(rig, 5),
                     setpoints=setpoints_for(plan, model, "cut"), sample_columns=TRACKING_COLUMNS,
                     models=(src.record,))
     assert_one_line_error(rig_here("track", "--resume", cut, "--feedback", "ilc"), "--feedback cannot be used")
