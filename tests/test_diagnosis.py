@@ -209,6 +209,33 @@ def test_verdicts_from_held_out_residuals():
     assert evidence([noise, noise + effect], noise + effect).decide(exclude=("e0",)).status == "unexplained"
 
 
+def test_a_second_special_case_tied_with_its_generalisation_is_named():
+    # A explains most of the excess; beside it, joule_power and its generalisation reversible both take the
+    # rest, each with its own small misfit: as in the first step, the special case is named -- it need not
+    # be told apart from the spline it is a case of, only from the others (X takes nothing)
+    rng = np.random.default_rng(7)
+    m = 400
+    noise = SIGMA * rng.normal(size=m)
+    a = 5 * SIGMA * np.sin(np.arange(m) / 7.0)
+    b = 4 * SIGMA * np.cos(np.arange(m) / 3.0)
+    small = [0.2 * SIGMA * rng.normal(size=m) for _ in range(4)]
+    reference = noise + a + b
+    after = [noise + b + small[0], noise + a + small[1], noise + a + small[2], reference]
+    pairs = np.array([np.full(m, np.nan), noise + small[1], noise + small[2], noise + b])
+    boot = np.tile(np.concatenate([[np.mean(reference**2)], [np.mean(x**2) for x in after]]), (50, 1))
+    ev = Evidence(("A", "joule_power", "reversible", "X"), reference, np.array(after), np.full(m, SIGMA), 0.05,
+                  boot, False, pair_with="A", pairs_after=pairs, within=(None, "reversible", None, None))
+    v = ev.decide()
+    assert v.status == "explained" and v.effects == ("A", "joule_power")
+    assert [s["effect"] for s in v.steps] == ["A", "joule_power"] and v.steps[1]["share_closed"] > 0.3
+    # a second that is not nested must still be told apart: X as good as joule_power is no second name
+    tied = pairs.copy()
+    tied[3] = noise + small[3]
+    v = Evidence(ev.names, reference, np.array(after), np.full(m, SIGMA), 0.05, boot, False, pair_with="A",
+                 pairs_after=tied, within=ev.within).decide()
+    assert v.status == "unexplained" and v.effects == ()
+
+
 # ---------------------------------------------------------------- the whole diagnosis on a model
 def synthetic(grid: Grid, extra=None, seed=0):
     """An identification run and a check run of a known Preisach model, plus an optional effect

@@ -188,14 +188,21 @@ class Evidence:
         if not options:
             return None
         gains = {j: mse_first - float(np.mean(self.pairs_after[j] ** 2)) for j in options}
+
+        def separated(j: int, o: int) -> bool:
+            return _ratio(gains[j] - gains[o], self._se_of(self.pairs_after[o] - self.pairs_after[j],
+                                                           np.zeros(0))) >= Z_SEPARATED
+
         j = max(options, key=lambda k: gains[k])
+        # as in the first step: a special case that does as well as its generalisation is named instead
+        w = self.within or (None,) * len(self.names)
+        j = next((o for o in options if w[o] == self.names[j] and not separated(j, o)), j)
         z = _ratio(gains[j], self._se_of(alone - self.pairs_after[j], np.zeros(0)))
         if z < Z_SIGNIFICANT or gains[j] <= 0:
             return None
-        for o in options:
-            if o != j and _ratio(gains[j] - gains[o], self._se_of(self.pairs_after[o] - self.pairs_after[j],
-                                                                 np.zeros(0))) < Z_SEPARATED:
-                return None
+        # ... and need not be told apart from it: it must stand clear of the others
+        if any(o != j and not self._nested(j, o) and not separated(j, o) for o in options):
+            return None
         return j, gains[j], z
 
     def decide(self, exclude: tuple[str, ...] = ()) -> Verdict:
