@@ -177,6 +177,12 @@ class Evidence:
         w = self.within or (None,) * len(self.names)
         return w[i] == self.names[j] or w[j] == self.names[i]
 
+    def _special_case(self, best: int, among: list[int], separated) -> int:
+        """The first of ``among`` that is a special case of ``best`` and not ``separated(best, it)`` from
+        it, else ``best``."""
+        w = self.within or (None,) * len(self.names)
+        return next((i for i in among if w[i] == self.names[best] and not separated(best, i)), best)
+
     def _second(self, first: int, keep: list[int]) -> tuple[int, float, float] | None:
         """The best second effect with ``first``: ``(index, its gain over first alone, z)``, when it is
         significant and separated from every other second; None otherwise (or without pairs)."""
@@ -193,10 +199,8 @@ class Evidence:
             return _ratio(gains[j] - gains[o], self._se_of(self.pairs_after[o] - self.pairs_after[j],
                                                            np.zeros(0))) >= Z_SEPARATED
 
-        j = max(options, key=lambda k: gains[k])
         # as in the first step: a special case that does as well as its generalisation is named instead
-        w = self.within or (None,) * len(self.names)
-        j = next((o for o in options if w[o] == self.names[j] and not separated(j, o)), j)
+        j = self._special_case(max(options, key=lambda k: gains[k]), options, separated)
         z = _ratio(gains[j], self._se_of(alone - self.pairs_after[j], np.zeros(0)))
         if z < Z_SIGNIFICANT or gains[j] <= 0:
             return None
@@ -224,13 +228,9 @@ class Evidence:
                 return Verdict("no_gap", None, None, (), why)
             return Verdict("unexplained", None, None, (),
                            "the residual exceeds the noise floor but no candidate improves it significantly")
-        best = max(significant, key=lambda i: gain[i])
         # a special case that explains as well as its generalisation is named instead (fewer terms)
-        for i in significant:
-            w = self.within[i] if self.within else None
-            if w == names[best] and _ratio(gain[best] - gain[i], self.difference_se(best, i)) < Z_SEPARATED:
-                best = i
-                break
+        best = self._special_case(max(significant, key=lambda i: gain[i]), significant,
+                                  lambda b, i: _ratio(gain[b] - gain[i], self.difference_se(b, i)) >= Z_SEPARATED)
         share = float(min(gain[best] / excess, 1.0)) if excess is not None and excess > 0 else None
         if excess is not None and not gap_present and (share is None or share < MOST):
             return Verdict("no_gap", None, None, (),
