@@ -58,6 +58,7 @@ and "most of the gap" is not checked.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -177,7 +178,7 @@ class Evidence:
         w = self.within or (None,) * len(self.names)
         return w[i] == self.names[j] or w[j] == self.names[i]
 
-    def _special_case(self, best: int, among: list[int], separated) -> int:
+    def _special_case(self, best: int, among: list[int], separated: Callable[[int, int], bool]) -> int:
         """The first of ``among`` that is a special case of ``best`` and not ``separated(best, it)`` from
         it, else ``best``."""
         w = self.within or (None,) * len(self.names)
@@ -185,7 +186,8 @@ class Evidence:
 
     def _second(self, first: int, keep: list[int]) -> tuple[int, float, float] | None:
         """The best second effect with ``first``: ``(index, its gain over first alone, z)``, when it is
-        significant and separated from every other second; None otherwise (or without pairs)."""
+        significant and separated from every other second it is not nested with (a special case as good
+        as its generalisation taking its place); None otherwise (or without pairs)."""
         if self.pairs_after is None or self.pair_with != self.names[first] or self.floor is None:
             return None
         alone = self.after[first]
