@@ -259,28 +259,19 @@ def test_the_oracle_is_the_true_signal_scored_beside_the_library():
     """The oracle candidate of an added signal closes the whole gap; a library candidate of another form
     closes less; and an oracle whose signal does not fit the runs says so."""
     from benchmarks.withheld.oracle import oracle_effect
-    from drivers.sim import SimVO2
-    from identify import damped_oscillation
-    from identify.diagnosis import DiagnosisSettings, Run, check_design, diagnose, library
+    from identify.diagnosis import DiagnosisSettings, diagnose, library
+    from tests.test_diagnosis import GRID, synthetic
 
-    grid = Grid(12, 0.0, 6.0)
-    truth = SimVO2(SimParams(levels=12)).true_model()
-    rng = np.random.default_rng(2)
-    sigma = 0.005
-    v_fit = damped_oscillation(grid, True)
-    fit = Run("fit", v_fit, truth.predict(v_fit) + sigma * rng.normal(size=v_fit.size),
-              np.cumsum(np.full(v_fit.size, 20.0)), np.full(v_fit.size, 20.0), 4)
-    d = check_design(0.0, 6.0, 160, seed=12)
-    t = np.cumsum(d.dwell_s)
-    signal = 0.04 * ((d.inputs - 3.0) / 3.0) ** 3 * np.sin(t / 900.0)  # neither a drift nor a map of the input
-    y = truth.predict(d.inputs) + signal + sigma * rng.normal(size=d.inputs.size)
-    check = Run("check", d.inputs, y, t, d.dwell_s, 4)
-    oracle = oracle_effect("oracle_total", (np.zeros(v_fit.size), signal))
+    def extra(v, t):  # neither a drift nor a map of the input
+        return 0.04 * ((v - 3.0) / 3.0) ** 3 * np.sin(t / 900.0)
+
+    fit, check = synthetic(GRID, extra, seed=2)
+    oracle = oracle_effect("oracle_total", (np.zeros(fit.n), extra(check.inputs, check.t_s)))
     settings = DiagnosisSettings(keep=False)  # an oracle is no effect a stored model could keep
-    res = diagnose([fit], [check], grid, settings, candidates=library(["baseline_drift"]) + [oracle])
+    res = diagnose([fit], [check], GRID, settings, candidates=library(["baseline_drift"]) + [oracle])
     by = {c.effect: c for c in res.candidates}
     assert res.verdict.effect == "oracle_total"
     assert by["oracle_total"].shrink > by["baseline_drift"].shrink
     assert by["oracle_total"].rmse_um == pytest.approx(res.noise_floor_um, rel=0.3)
     with pytest.raises(ValueError, match="runs' signals"):
-        diagnose([fit], [check], grid, settings, candidates=[oracle_effect("o", (signal,))])
+        diagnose([fit], [check], GRID, settings, candidates=[oracle_effect("o", (check.outputs,))])
