@@ -240,14 +240,13 @@ def test_verdict_reading_and_scoring_hand_cases():
 
 
 def test_the_fresh_headline_seeds_are_the_ones_in_the_readme_and_keep_their_place():
-    m = re.search(r"seeds 900011-900020\n  \(`--skip 10`\): `([0-9a-f]{16})`", README.read_text(encoding="utf-8"))
+    text = README.read_text(encoding="utf-8")
+    m = re.search(r"seeds 900011-900020\n  \(`--skip 10`\): `([0-9a-f]{16})`", text)
     assert m, "the README records the fresh headline seeds' draws digest"
     assert G.digest(G.draws("headline", 10, skip=10)) == m.group(1)
-    third = re.search(r"Seeds 900031-900040 \(`--skip 30`, stop 23\): draws\n  `([0-9a-f]{16})`",
-                      README.read_text(encoding="utf-8"))
+    third = re.search(r"Seeds 900031-900040 \(`--skip 30`, stop 23\): draws\n  `([0-9a-f]{16})`", text)
     assert third and G.digest(G.draws("headline", 10, skip=30)) == third.group(1)
-    fourth = re.search(r"Seeds 900041-900050 \(`--skip 40`,\n  stop 25\): draws `([0-9a-f]{16})`",
-                       README.read_text(encoding="utf-8"))
+    fourth = re.search(r"Seeds 900041-900050 \(`--skip 40`,\n  stop 25\): draws `([0-9a-f]{16})`", text)
     assert fourth and G.digest(G.draws("headline", 10, skip=40)) == fourth.group(1)
     # a skipped seed keeps its place in the split: the same seed and the same pairs as without skipping
     skipped = G.make_cases("headline", 1, selection=G.parse_selection("pairs"), skip=10)

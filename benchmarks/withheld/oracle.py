@@ -31,7 +31,7 @@ import numpy as np
 
 from identify.effects.base import OUTPUT, Columns, Context, Effect
 
-from .generate import Bench
+from .generate import Bench, rms
 
 
 def oracle_effect(name: str, signals: tuple[np.ndarray, ...]) -> Effect:
@@ -102,7 +102,7 @@ def run_case(keep: Path, row: dict[str, Any], calibrations: dict[tuple[int, str]
     res = diagnose(runs.fit, runs.check, runs.grid, DiagnosisSettings(keep=False), candidates=library() + oracles)
     v = res.verdict
     return {"key": row["key"], "sigma_um": bench.sigma_um,
-            "signal_rms_um": {n: float(np.sqrt(np.mean(s[1] ** 2))) for n, s in signals.items()},
+            "signal_rms_um": {n: rms(s[1]) for n, s in signals.items()},
             "status": v.status, "effects": list(v.effects), "reason": v.reason,
             "candidates": [{"effect": c.effect, "shrink": c.shrink, "z": c.z, "share_closed": c.share_closed}
                            for c in res.candidates[:top]]}
@@ -128,8 +128,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     for key in keys:
         out = run_case(args.keep, rows[key], cals)
-        rms = ", ".join(f"{n} {r / out['sigma_um']:.1f} sigma" for n, r in out["signal_rms_um"].items())
-        print(f"{key}: {out['status']} {'+'.join(out['effects'])} -- {out['reason']} (signal rms on the check run: {rms})")
+        sizes = ", ".join(f"{n} {r / out['sigma_um']:.1f} sigma" for n, r in out["signal_rms_um"].items())
+        print(f"{key}: {out['status']} {'+'.join(out['effects'])} -- {out['reason']} (signal rms on the check run: {sizes})")
         for c in out["candidates"]:
             share = "-" if c["share_closed"] is None else f"{c['share_closed']:.2f}"
             print(f"    {c['effect']:22s} shrink {c['shrink']:6.3f}  z {c['z']:6.1f}  share {share}")
