@@ -86,6 +86,13 @@ class BaseFit:
         """``x_F pinv(X_F)`` for the given rows of ``S``: ``(k, m)``."""
         return np.asarray(regressor_rows)[:, self.free] @ self.smoother
 
+    def carry_factor(self, regressor_rows: np.ndarray) -> np.ndarray:
+        """``C`` ``(k, |F|)`` with ``carry_over(rows) = C Q^T``, ``Q`` ``(m, |F|)`` orthonormal (the QR
+        factorisation of ``smoother^T``): the carry-over's singular values and left vectors at the cost of
+        an SVD of ``C`` (:func:`uncertain_directions`)."""
+        _, r = np.linalg.qr(self.smoother.T)
+        return np.asarray(regressor_rows)[:, self.free] @ r.T
+
     def unabsorbed(self, columns: np.ndarray) -> np.ndarray:
         """``(I - X_F pinv(X_F)) C``: what the base fit cannot absorb of columns ``C`` ``(m, k)``
         given on the identification points (the residual-maker of the fit on its free set)."""
@@ -114,6 +121,10 @@ def uncertain_directions(carry: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     values ``(r,)``, largest first.  On the damped oscillation the first is
     the thermal term, which the design identifies through one point only
     (about 10x on the simulated bench).
+
+    ``carry`` may be given in factored form: any ``(m_check, r)`` matrix
+    ``C`` with ``carry = C Q^T`` for orthonormal ``Q`` has the same left
+    singular vectors and values (:meth:`BaseFit.carry_factor`, far smaller).
     """
     if carry.size == 0:
         return np.zeros((carry.shape[0], 0)), np.zeros(0)
@@ -151,18 +162,19 @@ def _stack(grid: Grid, runs: tuple[Run, ...], thermal_term: bool) -> tuple[np.nd
     return np.concatenate(inputs), np.concatenate(outputs), np.vstack(blocks)
 
 
-def fit_base(
+def fit_model(
     grid: Grid,
     fit_runs: tuple[Run, ...] | list[Run],
     method: str = "ls",
     *,
     thermal_term: bool = True,
     settings: dict[str, Any] | None = None,
-) -> BaseFit:
-    """Identify equation (22) on the identification runs (stacked) and linearise the fit.
+) -> tuple[Any, bool, tuple[str, ...], np.ndarray, np.ndarray]:
+    """Identify equation (22) on the identification runs (stacked): the fitted estimator, whether it has
+    the thermal term, notes, and the stacked outputs ``(n,)`` and regressor ``(n, P)``.
 
     Without an identifiable thermal term (every measured input on a wall)
-    the model is fitted without one, and :attr:`BaseFit.notes` says so.
+    the model is fitted without one, and the notes say so.
     """
     runs = tuple(fit_runs)
     if not runs:
@@ -180,6 +192,21 @@ def fit_base(
         inputs, outputs, reg = _stack(grid, runs, thermal_term)
         estimator = make_method(method, **(settings or {}))
         estimator.fit(Problem.build(grid, inputs, outputs, None, thermal_term, regressor=reg))
+    return estimator, thermal_term, tuple(notes), outputs, reg
+
+
+def fit_base(
+    grid: Grid,
+    fit_runs: tuple[Run, ...] | list[Run],
+    method: str = "ls",
+    *,
+    thermal_term: bool = True,
+    settings: dict[str, Any] | None = None,
+) -> BaseFit:
+    """Identify equation (22) on the identification runs (stacked, :func:`fit_model`) and linearise the fit."""
+    runs = tuple(fit_runs)
+    estimator, thermal_term, notes, outputs, reg = fit_model(grid, runs, method, thermal_term=thermal_term,
+                                                             settings=settings)
     w = estimator.parameters_
     rows = np.flatnonzero(np.isfinite(outputs))
     x = reg[rows]
@@ -205,5 +232,5 @@ def fit_base(
         design=x[:, free],
         dof=int(rows.size - rank),
         info=dict(estimator.info_),
-        notes=tuple(notes),
+        notes=notes,
     )
