@@ -58,6 +58,7 @@ TRUTHS = {
                     "fractions": [0.0, 0.0, 0.0, 0.1, 0.0, 0.15, 0.0, 0.0, 0.0, 0.0]},
     "baseline_drift": None,
     "ambient_drift": None,
+    "gain_drift": None,
     "joule_power": {"um_per_V2": 0.07, "um_per_V4": -0.002},
     # a spectrum the fit's (weak) roughness penalty leaves alone: straight over log tau
     "creep": {"drive": "reversal", "time_constants_s": list(CREEP_TAUS),
@@ -74,7 +75,7 @@ TRUTHS = {
 
 def _truth(name):
     params = TRUTHS[name] if TRUTHS[name] is not None else _drift_params()
-    if name == "ambient_drift":  # the first run's mean room temperature is the density's reference
+    if name in ("ambient_drift", "gain_drift"):  # the first run's mean is the density's reference (room; scale)
         entry = params["runs"]["sim"]
         c = np.asarray(entry["coefficients"])
         c = c - splines_at(np.asarray(entry["knots_s"]), T).mean(axis=0) @ c

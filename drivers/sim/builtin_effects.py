@@ -26,6 +26,8 @@ name                     strength     what it does (stage)
                                       exponential of the time since (``deflection``)
 ``sensor_nonlinearity``  1/V          the PSD saturates: ``c + V_s tanh((psd - c) / V_s)`` with
                                       ``V_s = 1 / strength`` (``psd``)
+``gain_drift``           1 (rms)      the PSD's sensitivity wanders: the signal about the sensor's
+                                      zero is scaled by ``1 + strength d(t)`` (``psd``)
 =======================  ===========  ==============================================================
 
 Physical justification, one line each: a micro-heater heats the beam in
@@ -35,7 +37,8 @@ sum of such modes); laser pointing and mount relaxation move the spot on
 the detector independently of the beam; the package sits on a bench whose
 temperature follows the room; thermal expansion is proportional to
 temperature, which Joule heating makes proportional to ``v^2``, while
-equation (22) uses ``c_d v``; the strain of a phase transition relaxes
+equation (22) uses ``c_d v``; the laser's power and the lever's alignment
+drift, which changes the detector's sensitivity, not its zero; the strain of a phase transition relaxes
 slowly (thermally activated, with a broad spread of rates -- hence a
 stretched exponential) after the transition changes direction; and a
 lateral-effect PSD is linear only near its centre.
@@ -144,6 +147,27 @@ class BaselineDrift(Effect):
 
     def psd(self, volts: float, moment: Moment) -> float:
         return volts + self.strength * self._drift(moment.t_s)
+
+
+@register_effect
+class GainDrift(Effect):
+    """The PSD's sensitivity wanders by ``strength`` (relative, rms): the signal about the sensor's zero
+    (``psd_offset_V``, the PSD output at zero deflection) is scaled by ``1 + strength d(t)``, ``d`` a smooth
+    random drift of unit rms (see the module doc)."""
+
+    name = "gain_drift"
+    parameters = {"seed": 0.0, "period_min_s": 1800.0, "period_max_s": 14400.0}
+
+    def __init__(self, strength: float, **params: float) -> None:
+        super().__init__(strength, **params)
+        self._drift = SmoothDrift(int(self.seed), self.period_min_s, self.period_max_s, salt=3)
+        self._zero_V = 0.0
+
+    def bind(self, params: Any) -> None:
+        self._zero_V = float(params.psd_offset_V)
+
+    def psd(self, volts: float, moment: Moment) -> float:
+        return self._zero_V + (volts - self._zero_V) * (1.0 + self.strength * self._drift(moment.t_s))
 
 
 @register_effect

@@ -14,6 +14,7 @@ name                  stage    what it is
 ``thermal_lag``       input    part of the heating is slow: the beam is read short of its set-point
 ``baseline_drift``    output   the sensor zero drifts over session time (per run)
 ``ambient_drift``     input    the room temperature drifts, shifting the transition (per run)
+``gain_drift``        output   the sensor's sensitivity drifts over session time (per run)
 ``joule_power``       output   the thermal-expansion term follows heater power (v^2)
 ``creep``             output   the deflection relaxes after each reversal
 ``sensor_nonlinearity`` sensor the reading is a nonlinear function of the deflection
@@ -35,6 +36,7 @@ from .base import (INPUT, OUTPUT, SENSOR, Columns, Context, Effect, EffectNotApp
 from .baseline_drift import BaselineDrift
 from .creep import Creep
 from .first_point import FirstPoint
+from .gain_drift import GainDrift
 from .interaction import Interaction
 from .joule_power import JoulePower
 from .reversible import Reversible
@@ -44,13 +46,18 @@ from .thermal_lag import ThermalLag
 #: The effects, by name, in the diagnosis library's order.
 EFFECTS: dict[str, type[Effect]] = {
     cls.name: cls
-    for cls in (ThermalLag, BaselineDrift, AmbientDrift, JoulePower, Creep, SensorNonlinearity, Reversible,
-                Interaction, FirstPoint)
+    for cls in (ThermalLag, BaselineDrift, AmbientDrift, GainDrift, JoulePower, Creep, SensorNonlinearity,
+                Reversible, Interaction, FirstPoint)
 }
 #: Options an effect accepts after a colon on the command line.
 OPTIONS: dict[str, tuple[str, ...]] = {"reversible": ("monotone",)}
 #: Order of the input stage (what the memory curve sees is transformed in this order).
 INPUT_ORDER = ("thermal_lag", "ambient_drift", "interaction")
+
+
+def spellings() -> str:
+    """Every effect as ``--with`` accepts it (``name`` or ``name[:option]``), comma-separated, from the registry."""
+    return ", ".join(f"{n}[:{'|'.join(OPTIONS[n])}]" if n in OPTIONS else n for n in EFFECTS)
 
 
 def _unknown(name: str) -> IdentifyError:
@@ -128,4 +135,5 @@ __all__ = [
     "make_effect",
     "parse_effects",
     "pipeline_order",
+    "spellings",
 ]

@@ -179,6 +179,9 @@ class Effect(ABC):
     #: (input effects) Coefficients are where the parameters go, not steps: the joint fit adds the
     #: columns times :meth:`coefficients` to its target, so signs and penalties apply to the parameters.
     absolute: ClassVar[bool] = False
+    #: Its terms scale with the model's own output (a gain): the joint fit linearises it at equation (22)
+    #: fitted alone first, as it does input and sensor effects (from a zero model its columns would vanish).
+    from_base: ClassVar[bool] = False
     #: The name of a more general effect this one is a special case of (None): when both explain a gap
     #: equally well, the diagnosis names the special case -- fewer terms, the same physics.
     within: ClassVar[str | None] = None

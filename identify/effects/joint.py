@@ -353,8 +353,9 @@ class _Fitter:
         cur = self.state(start.model, effects)
         model, fitted = self.solve(cur.ctx, cur.effects, settings, frozen=True)
         cur = self.state(model, fitted)
-        # input and sensor effects, and terms driven by the model's own output, need iterating
-        if not any(e.stage in (INPUT, SENSOR) or s.get("drive") == "output" for e, s in zip(effects, settings)):
+        # input and sensor effects, and terms driven by (or scaling) the model's own output, need iterating
+        if not any(e.stage in (INPUT, SENSOR) or e.from_base or s.get("drive") == "output"
+                   for e, s in zip(effects, settings)):
             return cur
         for _ in range(max_iter):
             if cur.rss <= self.exact:
@@ -446,8 +447,8 @@ def fit_with_effects(
     fitter = _Fitter(grid, runs, method, settings, effects, thermal_term)
     zero = fitter.state(PreisachModel(grid, np.zeros(grid.n_cells)), ())
     base = None
-    if any(e.stage in (INPUT, SENSOR) for e in effects):
-        # equation (22) alone first: where input and sensor effects are linearised from
+    if any(e.stage in (INPUT, SENSOR) or e.from_base for e in effects):
+        # equation (22) alone first: where input and sensor effects (and gains of the output) are linearised from
         base_model, _ = fitter.solve(zero.ctx, (), ())
         base = fitter.state(base_model, ())
     start = base or zero

@@ -10,6 +10,7 @@ import click
 
 from identify import METHODS
 from identify.methods.base import SOLVERS
+from identify.effects import spellings as effect_spellings
 
 from ..budget.identification import PROGRESS_AFTER_S, job_cost
 from ..budget.limits import refuse_unless_confirmed
@@ -85,8 +86,7 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
 )
 @click.option("--with", "with_effects", multiple=True, metavar="EFFECT[,EFFECT...]",
               help="Fit these unmodelled effects jointly with the density and keep them in the model "
-                   "(ls, smooth_nn): thermal_lag, baseline_drift, ambient_drift, joule_power, creep, "
-                   "sensor_nonlinearity, reversible[:monotone], interaction, first_point.")
+                   f"(ls, smooth_nn): {effect_spellings()}.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--save", type=click.Path(path_type=Path),
               help="Also write the model as JSON here (several files: into this directory, <stem>.json each).")

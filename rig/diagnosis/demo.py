@@ -28,6 +28,7 @@ DEMO_STRENGTHS = {
     "joule_power": 0.093,
     "creep": 0.06,
     "sensor_nonlinearity": 0.24,
+    "gain_drift": 0.004,
 }
 #: The effect the demo switches on unless told otherwise.
 DEMO_EFFECT = "creep"

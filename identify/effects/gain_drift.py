@@ -1,0 +1,95 @@
+"""``gain_drift``: the sensor's sensitivity wanders over session time (laser power, alignment, the
+temperature of the optical lever).
+
+The reading is the deflection, measured from the sensor's zero, times a
+slowly varying factor: ``y = u (1 + g(t))``, ``g`` a smooth function of
+session time per run -- a penalised cubic spline with knots every
+:data:`~identify.effects.bases.KNOT_S` seconds, like the additive drifts.
+Linear in the spline's coefficients at a given output, so its columns are
+the model's output times each spline.  The first run's ``g`` has zero mean
+over its measured points: a constant gain is a rescaling of the whole model
+(density, bias and thermal term), which the fit makes anyway.  A per-run
+nuisance: a stored model knows the gain drift of the runs it was fitted on,
+by name, and nothing of another run's (a validation re-estimates it held
+out, :mod:`identify.effects.nuisance`).
+
+Where it differs from ``baseline_drift``: an offset moves every reading by
+the same amount at a given time; a gain moves large deflections more than
+small ones, and not at all at the sensor's zero.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import IdentifyError
+from ..runs import Run
+from .ambient_drift import FIT_SMOOTHING, SMOOTHING, drift_report
+from .base import OUTPUT, Columns, Context, Effect, needs_time
+from .bases import per_run_columns, run_splines, spline_of, time_splines
+
+
+class GainDrift(Effect):
+    name = "gain_drift"
+    summary = "the sensor's sensitivity drifts over session time (laser power, alignment)"
+    stage = OUTPUT
+    per_run = True
+    needs_output = True
+    from_base = True
+
+    def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
+        if not isinstance(params.get("runs"), dict):
+            raise IdentifyError(f"effect {self.name!r} needs 'runs': {{run name: spline}}")
+        return {"runs": params["runs"]}
+
+    def applicable(self, runs: tuple[Run, ...]) -> str | None:
+        return needs_time(runs)
+
+    def settings_grid(self) -> list[dict[str, float]]:
+        return [{"smoothing": w} for w in SMOOTHING]
+
+    def fit_settings_grid(self) -> list[dict[str, float]]:
+        return [{"smoothing": FIT_SMOOTHING}]
+
+    def _columns(self, ctx: Context, setting: dict[str, float], centre_first: bool) -> Columns:
+        bases = [time_splines(r) for r in ctx.runs]
+        if centre_first:  # the first run's mean gain is the model's scale: its drift has zero mean
+            first = ctx.runs[0]
+            bases[0] = bases[0] - bases[0][first.rows].mean(axis=0)
+        blocks = [ctx.bare_output(i)[:, None] * b for i, b in enumerate(bases)]
+        return per_run_columns(ctx.runs, blocks, "gain", setting.get("smoothing", 0.0))
+
+    def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """Each run's output times its splines; the first run's splines centred on its measured points."""
+        return self._columns(ctx, setting, centre_first=True)
+
+    def nuisance_columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
+        """On another run the gain has its own constant too (each run its own sensitivity)."""
+        return self._columns(ctx, setting, centre_first=False)
+
+    def with_fit(self, ctx, setting, coef, cols) -> "GainDrift":
+        coef = np.asarray(coef, dtype=float).copy()
+        first = ctx.runs[0]
+        mine = np.asarray(cols.run_of) == 0
+        if mine.any():  # the first run's columns were centred: so is its gain drift (its splines add up to one)
+            c = coef[mine]
+            coef[mine] = c - time_splines(first)[first.rows].mean(axis=0) @ c
+        previous = (self.params or {}).get("runs", {})
+        return GainDrift({"runs": {**previous, **run_splines(ctx.runs, cols, coef)}})
+
+    def gain(self, run: Run) -> np.ndarray:
+        """``g(t)`` at every point of ``run`` ``(n,)`` (relative: 0.01 is one per cent); zero on a run the
+        model does not know."""
+        entry = self.params["runs"].get(run.name)
+        return np.zeros(run.n) if entry is None else spline_of(entry, run.t_s)
+
+    def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
+                     start: tuple[float, float] | None = None) -> np.ndarray:
+        if u is None:
+            raise IdentifyError("gain_drift needs the model's output to act on")
+        return np.asarray(u, dtype=float) * self.gain(run)
+
+    def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
+        return drift_report(self.params, "gain", runs)
