@@ -87,7 +87,8 @@ def run_of(data: Recording, name: str | None = None, rows: np.ndarray | None = N
         kept[rows] = outputs[rows]
         outputs = kept
     if s is None:
-        return Run(name, data.inputs, outputs, data.t_s, np.full(data.inputs.size, np.nan), **units)
+        dwell = data.dwell_s if data.dwell_s is not None else np.full(data.inputs.size, np.nan)
+        return Run(name, data.inputs, outputs, data.t_s, dwell, **units)
     readings = s.excitation.dwell.get("readings")
     return Run(name, s.inputs, outputs, s.t_s, s.samples["dwell_s"],
                int(readings) if isinstance(readings, (int, float)) else None, **units)

@@ -21,6 +21,7 @@ import numpy as np
 from identify import Grid, damped_oscillation
 
 from .csvtrace import Trace
+from .csvtrace import dwell_from_time as dwell_from_time_of
 from .errors import DataFileError
 from .lock import held_by_other
 from .reader import Session
@@ -31,9 +32,11 @@ from .writer import SessionWriter
 
 
 def excitation_of_trace(
-    trace: Trace, levels: int | None, v_min: float | None, v_max: float | None, extra: dict | None = None
+    trace: Trace, levels: int | None, v_min: float | None, v_max: float | None, extra: dict | None = None,
+    dwell: dict | None = None,
 ) -> ExcitationRecord:
-    """The excitation record of an imported trace (grid only when ``levels`` is given)."""
+    """The excitation record of an imported trace (grid only when ``levels`` is given); ``dwell`` the
+    record's dwell policy (default ``{"policy": "unknown"}``)."""
     kind, thermal = "imported", False
     grid = None
     if levels is not None:
@@ -55,7 +58,7 @@ def excitation_of_trace(
         v_min=None if grid is None else grid.v_min,
         v_max=None if grid is None else grid.v_max,
         thermal_term=thermal,
-        dwell={"policy": "unknown"},
+        dwell=dwell or {"policy": "unknown"},
         extra=dict(extra or {}),
     )
 
@@ -90,18 +93,37 @@ def import_trace(
     operator: str = "",
     notes: str = "",
     force: bool = False,
+    dwell_from_time: bool = False,
 ) -> None:
-    """Write ``trace`` as a complete session at ``out`` (see :func:`write_new_session`)."""
+    """Write ``trace`` as a complete session at ``out`` (see :func:`write_new_session`).
+
+    The dwells are the trace's ``dwell_s`` column when it has one; with ``dwell_from_time`` each reading's
+    dwell is the time since the previous reading (:func:`~sessions.csvtrace.dwell_from_time`), an
+    assumption the session records (``dwell.policy = "from_time"``); else they are unknown.
+    """
     out = Path(out)
     check_replaceable(out, force)
     extra = source_record(source)
-    excitation = excitation_of_trace(trace, levels, v_min, v_max, extra)
+    where = str(source) if source is not None else "trace"
+    if dwell_from_time and trace.dwell_s is not None:
+        raise DataFileError(f"{where}: the trace records its dwells (column dwell_s); --dwell-from-time would "
+                            "replace them: give one or the other")
+    if dwell_from_time:
+        dwell = dwell_from_time_of(trace, where)
+        policy = {"policy": "from_time",
+                  "assumption": "each reading's dwell is the time since the previous reading (rig import "
+                                "--dwell-from-time); the first reading's, the time since the start"}
+    elif trace.dwell_s is not None:
+        dwell, policy = trace.dwell_s, {"policy": "recorded", "source": "the trace's dwell_s column"}
+    else:
+        dwell, policy = np.full(len(trace), np.nan), {"policy": "unknown"}
+    excitation = excitation_of_trace(trace, levels, v_min, v_max, extra, policy)
     rows = np.zeros(len(trace), SAMPLE_DTYPE)
     rows["t_s"] = trace.t_s
     rows["input"] = trace.v_V
     rows["output"] = trace.deflection_um
     rows["raw"] = np.nan
-    rows["dwell_s"] = np.nan
+    rows["dwell_s"] = dwell
     rows["measured"] = True
     rows["flags"] = SampleFlag.IMPORTED
     write_new_session(out, excitation, rows, operator=operator, notes=notes, force=force,
@@ -170,4 +192,4 @@ def trace_of_session(session: Session, measured_only: bool = False) -> Trace:
     if rows.size == 0:
         raise DataFileError(f"{session.path}: no measured samples to export")
     s = session.samples[rows]
-    return Trace(s["t_s"].copy(), s["input"].copy(), s["output"].copy())
+    return Trace(s["t_s"].copy(), s["input"].copy(), s["output"].copy(), s["dwell_s"].copy())

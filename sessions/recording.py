@@ -27,6 +27,8 @@ class Recording:
     ``t_s`` ``(n,)`` is the time of every point (s since the start).
     ``curves`` ``(n,)`` numbers the curve of every point (-1: none) when
     the run is made of curves (an imported FORC measurement), else ``None``.
+    ``dwell_s`` ``(n,)`` (a CSV trace with a ``dwell_s`` column) the time from each set-point change to
+    its reading (s); a session's are in its samples.
     """
 
     path: Path
@@ -38,6 +40,7 @@ class Recording:
     session: Session | None = None
     t_s: np.ndarray | None = None
     curves: np.ndarray | None = None
+    dwell_s: np.ndarray | None = None
 
     @property
     def measured_rows(self) -> np.ndarray:
@@ -63,7 +66,7 @@ def load_recording(path: str | os.PathLike) -> Recording:
             why = str(exc).removeprefix(f"{path}: ")
             raise DataFileError(f"{path}: not an HDF5 file, so not a session although named like one, "
                                 f"and not a CSV trace either ({why})") from None
-        return Recording(path, trace.v_V, trace.deflection_um, None, "V", "um", t_s=trace.t_s)
+        return Recording(path, trace.v_V, trace.deflection_um, None, "V", "um", t_s=trace.t_s, dwell_s=trace.dwell_s)
     session = read_session(path)
     if session.n_samples == 0:
         raise DataFileError(f"{path}: the session holds no samples")

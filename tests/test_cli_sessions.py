@@ -27,7 +27,8 @@ def test_import_export_round_trip(damped, tmp_path):
     assert run.code == 0, run.err
     assert run.json() == {"session": str(out), "n_samples": 23, "excitation": "damped", "levels": 6,
                           "v_min": 0.0, "v_max": 3.0, "thermal_term": True, "status": "complete",
-                          "format": "csv", "n_measured": 23, "input_unit": "V", "output_unit": "um"}
+                          "format": "csv", "n_measured": 23, "input_unit": "V", "output_unit": "um",
+                          "dwell": "unknown"}
     s = read_session(out)
     v = damped_oscillation(truth.grid, thermal_term=True)
     np.testing.assert_array_equal(s.inputs, v)

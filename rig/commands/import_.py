@@ -34,12 +34,22 @@ FORMATS = ("csv", "micromag")
 @click.option("--drift-correct", "drift", type=click.Choice(DRIFT_MODES),
               help="micromag: correct the moments for drift from the calibration points, as a sensitivity "
                    "(scale) or a baseline (offset). Off by default; recorded in the session.")
+@click.option("--dwell-from-time", is_flag=True,
+              help="csv: take each reading's dwell (set-point change to reading) as the time since the previous "
+                   "reading, for a trace that records time stamps but no dwell_s column; the assumption is "
+                   "recorded in the session.")
 @click.option("--operator", default="", help="Who made the measurement.")
 @click.option("--notes", default="", help="Free-text notes stored with the session.")
 @click.option("--force", is_flag=True, help="Replace --out if it exists.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def import_(file, out, fmt, levels, v_min, v_max, drift, operator, notes, force, as_json):
+def import_(file, out, fmt, levels, v_min, v_max, drift, dwell_from_time, operator, notes, force, as_json):
     """Turn FILE (a CSV trace or a MicroMag FORC file) into the session OUT.
+
+    A CSV trace is t_s,v_V,deflection_um with an optional fourth column
+    dwell_s (seconds from each set-point change to its reading, as in
+    `rig acquire --sequence FILE.csv`); without it the dwells are unknown,
+    unless --dwell-from-time takes them from the time stamps.  A thermal
+    lag can only be judged on runs that record their dwells.
 
     With --levels the session records the grid (and recognises the damped
     oscillation of that grid), so `rig identify OUT` needs no --levels.
@@ -48,6 +58,8 @@ def import_(file, out, fmt, levels, v_min, v_max, drift, operator, notes, force,
     """
     forc = None
     if fmt == "micromag":
+        if dwell_from_time:
+            raise UserError("--dwell-from-time applies to CSV traces; a MicroMag file's timing comes from its header")
         forc = read_forc(file)
         import_forc(forc, out, levels=levels, v_min=v_min, v_max=v_max, drift=drift,
                     operator=operator, notes=notes, force=force)
@@ -55,7 +67,7 @@ def import_(file, out, fmt, levels, v_min, v_max, drift, operator, notes, force,
         if drift is not None:
             raise UserError("--drift-correct needs calibration points: it applies to --format micromag only")
         import_trace(read_trace(file), out, levels=levels, v_min=v_min, v_max=v_max, source=file,
-                     operator=operator, notes=notes, force=force)
+                     operator=operator, notes=notes, force=force, dwell_from_time=dwell_from_time)
     session = read_session(out)
     exc = session.excitation
     summary = {
@@ -71,6 +83,7 @@ def import_(file, out, fmt, levels, v_min, v_max, drift, operator, notes, force,
         "n_measured": int(session.measured.sum()),
         "input_unit": session.quantities.input_unit,
         "output_unit": session.quantities.output_unit,
+        "dwell": exc.dwell.get("policy", "unknown"),
     }
     if forc is not None:
         summary.update(
