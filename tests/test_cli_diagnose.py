@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 
+from identify.diagnosis import NAMES
 from identify.effects import EFFECTS
 
 from rig.diagnosis.demo import diagnose_simulated
@@ -39,7 +40,8 @@ def test_json_follows_the_contract_and_names_the_effect(creep_runs, tmp_path):
     for w in out["where"]:
         assert w["bins"] and all({"lo", "hi", "mean_um", "rms_um", "n", "significant"} <= set(b) for b in w["bins"])
         assert sum(b["n"] for b in w["bins"]) == out["baseline"]["n_points"]
-    assert {c["effect"] for c in out["candidates"]} == set(EFFECTS)
+    scored = {c["effect"] for c in out["candidates"]}
+    assert scored | {e["effect"] for e in out["not_assessed"]} == set(NAMES) and set(EFFECTS) <= scored
     for c in out["candidates"]:
         assert {"effect", "rmse_um", "shrink", "ci", "params"} <= set(c) and len(c["ci"]) == 2
         assert c["ci"][0] <= c["shrink"] <= c["ci"][1]

@@ -50,11 +50,15 @@ def test_thinned_history_leaves_every_kept_point_in_its_memory_state():
     np.testing.assert_allclose(rev, REVERSALS[c[kept]])
 
 
-def test_drift_monitor_noise_is_half_the_mean_square_of_successive_differences():
-    est = from_monitor([np.array([0.0, 1.0, 0.0, 1.0, 0.0]), np.array([2.0, 2.0, 3.0, 3.0, 2.0])])
-    # differences: +-1 four times, then 0, 1, 0, -1: mean square 6/8, sigma^2 = 3/8
-    assert est.sigma_um == pytest.approx(np.sqrt(3.0 / 8.0)) and est.source == "drift_monitor"
-    assert from_monitor([np.arange(4.0)]) is None  # too few differences to say anything
+def test_drift_monitor_noise_is_a_sixth_of_the_mean_square_of_second_differences_and_ignores_a_linear_drift():
+    zigzag = np.array([0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0])   # second differences -2, 2, -2, 2, -2
+    drifting = np.array([0.0, 1.0, 0.0, 1.0, 0.0, 1.0]) + 0.25 * np.arange(6)  # the drift cancels: 2, -2, 2, -2
+    est = from_monitor([zigzag, drifting])
+    # nine second differences of +-2: mean square 4, sigma^2 = 4 / 6
+    assert est.sigma_um == pytest.approx(np.sqrt(4.0 / 6.0)) and est.source == "drift_monitor" and est.measured
+    # the same zigzag on a steep drift gives the same noise (first differences would add the slope)
+    assert from_monitor([zigzag, drifting + 10.0 * np.arange(6)]).sigma_um == pytest.approx(est.sigma_um)
+    assert from_monitor([np.arange(9.0)]) is None  # too few second differences to say anything
 
 
 def test_drift_at_evaluates_a_fitted_spline_and_a_constant():

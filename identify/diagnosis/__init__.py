@@ -7,6 +7,7 @@ Pure numerics, one module per job:
 * :mod:`~identify.diagnosis.design` -- the check-run input design;
 * :mod:`~identify.diagnosis.base` -- the base model on the identification runs, linearised;
 * :mod:`~identify.diagnosis.candidates` -- the candidate augmentations (one per effect);
+* :mod:`~identify.diagnosis.resolution` -- the same model on a finer grid, as a candidate;
 * :mod:`~identify.diagnosis.noise` -- the noise floor;
 * :mod:`~identify.diagnosis.scoring` -- blocked cross-validation and the block bootstrap;
 * :mod:`~identify.diagnosis.binning` -- the residual bins ("where");
@@ -14,7 +15,7 @@ Pure numerics, one module per job:
 * :mod:`~identify.diagnosis.engine` -- :func:`diagnose`, tying them together.
 """
 
-from .candidates import CANDIDATES, Candidate, library
+from .candidates import CANDIDATES, NAMES, Candidate, library
 from .design import CheckDesign, check_design
 from .engine import CandidateScore, Diagnosis, DiagnosisSettings, diagnose
 from ..runs import Run
@@ -22,6 +23,7 @@ from .verdict import STATUSES, Verdict
 
 __all__ = [
     "CANDIDATES",
+    "NAMES",
     "STATUSES",
     "Candidate",
     "CandidateScore",

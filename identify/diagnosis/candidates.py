@@ -24,11 +24,20 @@ import numpy as np
 from ..effects import EFFECTS, Columns, Context, Effect, make_effect
 from ..effects.bases import spline_of
 from ..errors import IdentifyError
+from .resolution import Resolution
 
-#: The library, by name, in the effects' order (every registered effect is a candidate).
+#: The effects, by name, in the effects' order (every registered effect is a candidate).
 CANDIDATES: dict[str, type[Effect]] = dict(EFFECTS)
-#: Candidates are the effects; the name is kept for the diagnosis's vocabulary.
+#: Every candidate's name: the effects, then ``resolution`` (the same model on a finer grid, which the
+#: diagnosis builds for its runs: :mod:`~identify.diagnosis.resolution`).
+NAMES: tuple[str, ...] = (*CANDIDATES, Resolution.name)
+#: Candidates are the effects (and the resolution candidate); the name is kept for the diagnosis's vocabulary.
 Candidate = Effect
+
+
+def summary(name: str) -> str:
+    """One line saying what candidate ``name`` is."""
+    return Resolution.summary if name == Resolution.name else CANDIDATES[name].summary
 
 
 def library(names: list[str] | tuple[str, ...] | None = None) -> list[Effect]:
@@ -36,7 +45,7 @@ def library(names: list[str] | tuple[str, ...] | None = None) -> list[Effect]:
     chosen = list(CANDIDATES) if names is None else list(names)
     unknown = [n for n in chosen if n.partition(":")[0] not in CANDIDATES]
     if unknown:
-        raise IdentifyError(f"unknown effect(s) {', '.join(unknown)}; the library has {', '.join(CANDIDATES)}")
+        raise IdentifyError(f"unknown effect(s) {', '.join(unknown)}; the library has {', '.join(NAMES)}")
     return [make_effect(n) for n in chosen]
 
 
@@ -54,4 +63,4 @@ def drift_at(run_params: dict[str, Any], t_s: np.ndarray) -> np.ndarray:
     return spline_of(run_params, t_s)
 
 
-__all__ = ["CANDIDATES", "Candidate", "Columns", "Context", "drift_at", "fitted_params", "library"]
+__all__ = ["CANDIDATES", "NAMES", "Candidate", "summary", "Columns", "Context", "drift_at", "fitted_params", "library"]

@@ -33,8 +33,9 @@ from ..runs import Run
 from .base import BaseFit, fit_base, uncertain_directions
 from .binning import Binning, bin_residuals
 from .candidates import Candidate, Columns, fitted_params, library
-from .noise import NoiseEstimate, estimate_noise, floor_per_point
-from .scoring import Blocks, Design, bootstrap_mse, cross_validate, make_blocks, onehot
+from .noise import NoiseEstimate, estimate_noise, fit_residual_bound, floor_per_point
+from .resolution import Resolution
+from .scoring import WIDE, Blocks, Design, bootstrap_mse, cross_validate, make_blocks, onehot
 from .verdict import Evidence, Verdict
 
 #: Fraction of the scored range within which an input counts as inside the grid.
@@ -149,6 +150,8 @@ class Diagnosis:
     input_unit: str = "V"
     output_unit: str = "um"
     kept: KeptModel | None = None
+    #: How :attr:`noise_floor_um` is known: ``measured``, ``bound`` (from the fit's residual) or None.
+    floor_kind: str | None = None
 
     @property
     def chosen(self) -> str | None:
@@ -337,7 +340,8 @@ def diagnose(
                             + ", ".join(f"{r.name} {r.input_unit} in, {r.output_unit} out" for r in fit_runs + check_runs))
     input_unit, output_unit = units.pop()
     unit_names = {"V": input_unit, "um": output_unit}
-    cands = candidates if candidates is not None else library(settings.effects)
+    cands = candidates if candidates is not None else library(
+        None if settings.effects is None else tuple(n for n in settings.effects if n != Resolution.name))
     warnings: list[str] = []
     base = fit_base(grid, fit_runs, settings.method, thermal_term=settings.thermal_term,
                     settings=settings.method_settings)
@@ -354,6 +358,9 @@ def diagnose(
     if not used:
         raise IdentifyError("no check point lies inside the identification range; nothing to judge the model on")
     n_fit = len(fit_runs)
+    if candidates is None and (settings.effects is None or Resolution.name in settings.effects):
+        cands = [*cands, Resolution(grid, fit_runs, tuple(used), settings.method, base.thermal_term,
+                                    settings.method_settings)]
     ctx = Context.of_model(base.model, fit_runs + tuple(used), n_fit)
     preds = ctx.predictions[n_fit:]
     regs = np.vstack([base.regressor(run)[r] for run, r in zip(used, rows)])
@@ -372,7 +379,7 @@ def diagnose(
     # the reference: the base model with the directions the identification design leaves poorly
     # determined (noise amplified > AMPLIFICATION into the check predictions) re-estimated on held-out
     # check blocks, so that identification noise carried through them does not pose as an effect
-    recal, amplification = uncertain_directions(scored.carry)
+    recal, amplification = uncertain_directions(base.carry_factor(regs))
     k_recal = recal.shape[1]
     if k_recal:
         ref = cross_validate(gap, blocks, [Design(recal)])
@@ -382,12 +389,30 @@ def diagnose(
     carry_rest = scored.carry - recal @ (recal.T @ scored.carry)
 
     noise = estimate_noise(base, list(used), monitors)
-    floor = floor_per_point(noise, base, [(run, r.size) for run, r in zip(used, rows)], carry_rest,
-                            extra=k_recal / max(gap.size, 1)) if noise is not None else None
+    scored_runs = [(run, r.size) for run, r in zip(used, rows)]
+    extra = k_recal / max(gap.size, 1)
+    # a floor is measured (repeated readings of one memory state) or only bounded by the fit's residual
+    floor_kind: str | None = "measured" if noise is not None and noise.measured else None
+    floor = floor_estimate = None
+    floor_rse = 0.0
+    if floor_kind == "measured":
+        floor = floor_per_point(noise, base, scored_runs, carry_rest, extra=extra)
+        floor_rse = noise.relative_se_of_variance
+    else:
+        bound = fit_residual_bound(base)
+        if bound is not None:
+            floor_kind = "bound"
+            floor = floor_per_point(bound, base, scored_runs, carry_rest, extra=extra)
+            if noise is not None:
+                floor_estimate = floor_per_point(noise, base, scored_runs, carry_rest, extra=extra)
+            noise = noise or bound
+            warnings.append("no measured noise floor (no repeated runs, repeated set-points or calibration "
+                            "points): the noise is only bounded, from the base fit's residual, so the verdict "
+                            "cannot say 'no gap'")
     floor_rms = _rms(floor) if floor is not None else None
-    if noise is None:
-        warnings.append("no noise estimate: no repeated runs or set-points, and the base fit leaves too few "
-                        "residual degrees of freedom; bins are judged by their own scatter")
+    if floor is None:
+        warnings.append("no noise estimate: no repeated runs or set-points, and the base fit leaves no "
+                        "residual degree of freedom; bins are judged by their own scatter")
 
     # the identification points weigh in the joint fit as their noise says (K readings each)
     fit_weight = 1.0
@@ -421,21 +446,27 @@ def diagnose(
         full = cols_list[cv.full_setting]
         params = fitted_params(cand, ctx, grid_settings[cv.full_setting], cv.full_coef[: full.k], full)
         results.append((cand, after, params, visible, note))
-        fits[cand.name] = (parts, cols_list, cv.full_setting)
+        fits[cand.name] = (parts, cols_list, cv.full_setting, cv.chosen)
 
-    # a second effect: every other candidate fitted together with the one that improves most on its own
+    # a second effect: every other candidate that improves the held-out error on its own (a second must
+    # stand on its own too, see the verdict) fitted together with the one that improves most
     pair_with, pairs_after = None, None
     if results:
         best = min(results, key=lambda r: float(np.mean(r[1] ** 2)))[0].name
         pair_with = best
         pairs_after = np.full((len(results), gap.size), np.nan)
-        pa, ca, sa = fits[best]
-        for i, (cand, *_rest) in enumerate(results):
-            if cand.name == best:
+        pa, ca, sa, _ = fits[best]
+        mse_reference = float(np.mean(reference**2))
+        for i, (cand, after_i, *_rest) in enumerate(results):
+            if cand.name == best or float(np.mean(after_i**2)) >= mse_reference:
                 continue
-            pb, cb, _ = fits[cand.name]
+            pb, cb, _, picked = fits[cand.name]
             designs = [_pair_design(pa[sa], ca[sa], p, c, recal) for p, c in zip(pb, cb)]
-            pairs_after[i] = gap - cross_validate(gap, blocks, designs, base.residual, fit_weight).prediction
+            # beside a wide first (a fine grid's cells), the second keeps the setting its own
+            # cross-validation chose for each held-out block: a nested search over both is minutes
+            wide = ca[sa].k > WIDE
+            pairs_after[i] = gap - cross_validate(gap, blocks, designs, base.residual, fit_weight,
+                                                  chosen=picked if wide else None).prediction
 
     sse_base = ind @ reference**2
     sse = np.array([ind @ a**2 for _, a, *_ in results]).reshape(len(results), blocks.count)
@@ -443,29 +474,32 @@ def diagnose(
     lo_q, hi_q = (1 - CONFIDENCE) / 2, 1 - (1 - CONFIDENCE) / 2
     shrink_boot = 1.0 - np.sqrt(boot[:, 1:] / boot[:, :1])
 
-    floor_sq = float(np.mean(floor**2)) if floor is not None else None
-    where = bin_residuals(feats, -reference, floor, unit_names)
+    where = bin_residuals(feats, -reference, floor if floor_kind == "measured" else None, unit_names)
     structure = any(b.significant for w in where for b in w.bins)
     evidence = Evidence(
         names=tuple(c.name for c, *_ in results),
         reference=reference,
         after=np.array([a for _, a, *_ in results]).reshape(len(results), reference.size),
         floor=floor,
-        floor_rse=noise.relative_se_of_variance if noise is not None else 0.0,
+        floor_rse=floor_rse,
         boot=boot,
         structure=structure,
         pair_with=pair_with,
         pairs_after=pairs_after,
         within=tuple(getattr(c, "within", None) for c, *_ in results),
+        floor_kind=floor_kind,
+        floor_estimate=floor_estimate,
     )
-    verdict = evidence.decide()
+    verdict = with_unassessed(evidence.decide(), not_assessed)
     z, mse_base, mse, shrink = evidence.z(), evidence.mse_base, evidence.mse, evidence.shrink
 
+    excess = evidence.excess()
+    floor_sq = float(np.mean(floor**2)) if floor is not None else None
     scores = []
     for i, (cand, after, params, visible, note) in enumerate(results):
         share = None
-        if floor_sq is not None and mse_base > floor_sq:
-            share = float((mse_base - mse[i]) / (mse_base - floor_sq))
+        if excess is not None and excess > 0:
+            share = float(min((mse_base - mse[i]) / excess, 1.0))
         boot_ci = (float(np.quantile(shrink_boot[:, i], lo_q)), float(np.quantile(shrink_boot[:, i], hi_q)))
         scores.append(CandidateScore(cand.name, float(np.sqrt(mse[i])), float(shrink[i]),
                                      evidence.interval(i, CONFIDENCE), float(mse_base - mse[i]), float(z[i]),
@@ -510,6 +544,7 @@ def diagnose(
         evidence=evidence,
         input_unit=input_unit,
         output_unit=output_unit,
+        floor_kind=floor_kind,
     )
     chosen = result.chosen
     named = verdict_effects(verdict)
@@ -520,9 +555,41 @@ def diagnose(
     elif chosen is not None and chosen in residual_after:
         object.__setattr__(result, "where_after", bin_residuals(feats, residual_after[chosen], floor, unit_names))
     if named and settings.keep:
-        object.__setattr__(result, "kept", keep_model(grid, fit_runs, tuple(used), tuple(rows), named, settings,
-                                                      base.thermal_term, result.fit_only_rmse_um))
+        object.__setattr__(result, "kept", _kept(result, grid, fit_runs, tuple(used), tuple(rows), named, settings,
+                                                 base.thermal_term))
     return result
+
+
+def _kept(result: Diagnosis, grid: Grid, fit_runs: tuple[Run, ...], check_runs: tuple[Run, ...],
+          rows: tuple[np.ndarray, ...], named: tuple[str, ...], settings: DiagnosisSettings,
+          thermal_term: bool) -> KeptModel:
+    """:func:`keep_model` for the named candidates; ``resolution`` is the grid the model is identified on
+    (when the identification runs can identify it)."""
+    score = result.score(Resolution.name) if Resolution.name in named else None
+    if score is not None:
+        levels = int(score.params.get("levels", grid.levels))
+        if score.params.get("mode") != "refit":
+            return KeptModel(named, None, None, {Resolution.name: dict(score.params)},
+                             error=f"the identification run(s) hold too few distinct inputs for a grid of {levels} "
+                                   f"levels (the finer grid was estimated with the check runs' help): acquire "
+                                   f"the identification run on {levels} levels (rig acquire --levels {levels}) "
+                                   f"and identify it there")
+        grid = Grid(levels, grid.v_min, grid.v_max)
+    kept = keep_model(grid, fit_runs, check_runs, rows, tuple(n for n in named if n != Resolution.name), settings,
+                      thermal_term, result.fit_only_rmse_um)
+    if score is None:
+        return kept
+    return replace(kept, effects=named, params={Resolution.name: {"levels": grid.levels}, **kept.params})
+
+
+def with_unassessed(verdict: Verdict, not_assessed: list[tuple[str, str]]) -> Verdict:
+    """``verdict``, saying which candidates could not be assessed when it leaves the gap open (unexplained,
+    ambiguous, cannot tell): the answer may lie among them."""
+    if verdict.status not in ("unexplained", "ambiguous", "cannot_tell") or not not_assessed:
+        return verdict
+    names = tuple(n for n, _ in not_assessed)
+    return replace(verdict, reason=f"{verdict.reason}; not assessed: {', '.join(names)} (see not_assessed for why)",
+                   unassessed=names)
 
 
 def verdict_effects(verdict: Verdict) -> tuple[str, ...]:

@@ -23,14 +23,26 @@ The measurement noise ``sigma`` is estimated, in this order of preference:
    is an upper bound.
    ``drift_monitor`` is the same estimate from a drift monitor's
    calibration points (a FORC measurement's: the same field after the same
-   saturation before every curve, so the same memory state), successive
-   ones differenced; slow drift between them adds to it (an upper bound).
+   saturation before every curve, so the same memory state), second
+   differences of successive ones (``sigma^2 = mean(d2^2) / 6``): a drift
+   that is locally linear between three calibration points cancels; its
+   curvature adds to it (an upper bound).
 3. ``fit_residual`` -- the base fit's residual on the identification runs
    over its residual degrees of freedom (NNLS leaves cells at zero, so it
    is not interpolating): ``RSS / (m - rank X_F)``.  Effects the base
    model cannot absorb add to it; with few residual degrees of freedom
    (under :data:`MIN_FIT_DOF`) the free set's selection biases it low, and
    it is not used.
+
+**A floor is measured, or it is only a bound.**  1 and 2 (and the drift
+monitor) *measure* the noise: repeated readings of one memory state.  The
+fit residual does not: it holds whatever the base model could not absorb
+of the identification run -- the effect itself, often -- so it is never a
+floor on its own (:attr:`NoiseEstimate.measured`).  Without a measured
+floor the diagnosis uses :func:`fit_residual_bound`, an upper confidence
+bound on the noise from the fit residual and its degrees of freedom: a
+held-out error far above it is a gap; one within it is not "no gap" but
+"cannot tell" (:mod:`~identify.diagnosis.verdict`).
 
 Noise scales as ``1 / sqrt(K)`` with the number ``K`` of readings averaged
 per measurement, which sessions record; estimates are converted between
@@ -55,6 +67,10 @@ MIN_PAIRS = 8
 MIN_FIT_DOF = 50
 #: Relative tolerance for "the same set-point".
 SAME_INPUT = 1e-9
+#: One-sided confidence of the upper bound on the noise from the fit residual (:func:`fit_residual_bound`).
+BOUND_CONFIDENCE = 0.95
+#: Sources that measure the noise (repeated readings of one memory state); the others only bound it.
+MEASURED = ("repeated_runs", "repeated_visits", "drift_monitor")
 
 
 @dataclass(frozen=True)
@@ -74,6 +90,12 @@ class NoiseEstimate:
         if self.readings is None or readings is None:
             return self.sigma_um
         return self.sigma_um * float(np.sqrt(self.readings / readings))
+
+    @property
+    def measured(self) -> bool:
+        """Whether the estimate rests on repeated readings of one memory state (a floor), not on a fit's
+        residual alone (a bound: the residual holds what the model could not absorb)."""
+        return any(part in MEASURED for part in self.source.split("+"))
 
     @property
     def relative_se_of_variance(self) -> float:
@@ -135,13 +157,21 @@ def from_repeated_visits(runs: list[Run]) -> NoiseEstimate | None:
 
 def from_monitor(monitors: list[np.ndarray]) -> NoiseEstimate | None:
     """Pooled estimate from drift monitors: each ``(k,)`` the outputs (um) of repeated measurements of
-    one memory state, in time order."""
-    d = np.concatenate([np.diff(np.asarray(m, dtype=float)) for m in monitors]) if monitors else np.zeros(0)
-    d = d[np.isfinite(d)]
+    one memory state, in time order.  Second differences (``mean(d2^2) / 6``): a drift that is linear over
+    three successive calibration points cancels, so it does not pose as noise."""
+    parts = []
+    for m in monitors or []:
+        y = np.asarray(m, dtype=float)
+        y = y[np.isfinite(y)]
+        if y.size >= 3:
+            parts.append(np.diff(y, 2))
+    d = np.concatenate(parts) if parts else np.zeros(0)
     if d.size < MIN_PAIRS:
         return None
-    return NoiseEstimate(float(np.sqrt(np.mean(d**2) / 2.0)), None, "drift_monitor", float(d.size),
-                         f"{d.size} successive calibration points (an upper bound: drift between them adds)")
+    # second differences of white noise: variance 6 sigma^2, neighbours correlated (about half the information)
+    return NoiseEstimate(float(np.sqrt(np.mean(d**2) / 6.0)), None, "drift_monitor", d.size / 2.0,
+                         f"{d.size + 2 * len(parts)} calibration points, second differences (an upper bound: "
+                         f"a drift's curvature between them adds)")
 
 
 def from_fit_residual(base: BaseFit) -> NoiseEstimate | None:
@@ -151,6 +181,26 @@ def from_fit_residual(base: BaseFit) -> NoiseEstimate | None:
     r = base.measured - base.fitted
     return NoiseEstimate(float(np.sqrt(r @ r / base.dof)), _readings(list(base.fit_runs)), "fit_residual",
                          float(base.dof), f"base fit residual over {base.dof} residual degrees of freedom")
+
+
+def fit_residual_bound(base: BaseFit, confidence: float = BOUND_CONFIDENCE) -> NoiseEstimate | None:
+    """An upper confidence bound on the noise from the base fit's residual: ``RSS / chi2_(1-c)(dof)``.
+
+    The residual holds the noise and whatever the base model could not absorb
+    of the identification run, so the point estimate is not a floor; the bound
+    says how large the noise could be (at ``confidence``, one-sided, the
+    chi-square of the residual degrees of freedom), with any number of them.
+    None without a residual degree of freedom.
+    """
+    if base.dof < 1:
+        return None
+    from scipy import stats  # imported when needed: 0.2 s of the rig command's start-up
+
+    r = base.measured - base.fitted
+    sigma = float(np.sqrt(r @ r / stats.chi2.ppf(1.0 - confidence, base.dof)))
+    return NoiseEstimate(sigma, _readings(list(base.fit_runs)), "fit_residual_bound", float(base.dof),
+                         f"upper {100 * confidence:.0f} % bound from the base fit's residual over {base.dof} "
+                         f"residual degrees of freedom (it holds whatever the model could not absorb)")
 
 
 def _per_reading(e: NoiseEstimate) -> float:

@@ -285,6 +285,7 @@ def cross_validate(
     designs: list[Design],
     fit_residual: np.ndarray | None = None,
     fit_weight: float = 1.0,
+    chosen: np.ndarray | None = None,
 ) -> CrossValidation:
     """Leave-one-block-out predictions of ``gap`` ``(m,)`` by a candidate with settings ``designs``.
 
@@ -299,7 +300,9 @@ def cross_validate(
     :func:`feasible_coefficients` (nearly optimal); the outer fits solve
     them exactly.  Designs wider than :data:`WIDE` columns leave out
     :data:`INNER_FOLDS` contiguous groups of blocks in the inner
-    cross-validation rather than one block at a time.
+    cross-validation rather than one block at a time.  ``chosen`` ``(B,)``
+    gives the setting for each held-out block instead (chosen without
+    that block elsewhere, e.g. by this candidate's own cross-validation).
     """
     nb = blocks.count
     m = gap.size
@@ -308,7 +311,7 @@ def cross_validate(
     normals = [_normal(d, gap, ind, fit_residual, fit_weight) for d in designs]
     others = np.arange(nb)
     prediction = np.zeros(m)
-    chosen = np.zeros(nb, int)
+    picked = np.zeros(nb, int)
     # outer leave-one-block-out errors of every setting (for the full-data choice)
     outer = np.zeros((len(normals), nb))
     outer_coef = []
@@ -319,7 +322,9 @@ def cross_validate(
     wide = max(ne.check.shape[1] for ne in normals) > WIDE
     for b in range(nb):
         best = 0
-        if len(normals) > 1:
+        if chosen is not None:
+            best = int(chosen[b])
+        elif len(normals) > 1:
             inner = np.array([0.0] * len(normals))
             rest = others[others != b]
             groups = np.array_split(rest, min(INNER_FOLDS, rest.size)) if wide else [rest[i:i + 1] for i in range(rest.size)]
@@ -334,11 +339,11 @@ def cross_validate(
             best = int(np.argmin(inner))
         rows = blocks.index == b
         prediction[rows] = normals[best].check[rows] @ outer_coef[best][b]
-        chosen[b] = best
+        picked[b] = best
     s_full = int(np.argmin(outer.sum(axis=1)))
     ne = normals[s_full]
     full = solve_coefficients(ne.gram, ne.rhs, ne.nonneg)
-    return CrossValidation(prediction, chosen, s_full, full / ne.scale)
+    return CrossValidation(prediction, picked, s_full, full / ne.scale)
 
 
 def onehot(blocks: Blocks) -> np.ndarray:

@@ -50,9 +50,18 @@ Then, in order:
   naming the contenders (the best and those it is not separated from);
 * otherwise ``explained``: the effect is named.
 
-Without a noise floor, "the excess" cannot be measured: the gap counts as
-present when a residual bin stands out (its own scatter as the yardstick),
-and "most of the gap" is not checked.
+**A verdict never claims more than its evidence.**  ``no_gap`` says the
+held-out error is the noise, so it needs the noise *measured*: repeated
+runs, repeated set-points or calibration points (a *measured* floor,
+:attr:`Evidence.floor_kind`).  Without one, the floor is only *bounded*
+from the base fit's residual (:func:`~identify.diagnosis.noise.fit_residual_bound`):
+a held-out error significantly above the bound is a gap; one that is not is
+``cannot_tell`` -- it may be noise or it may not, and the reason says what
+to measure.  With no estimate at all, the gap counts as present when a
+residual bin stands out (its own scatter as the yardstick) or a candidate
+improves the held-out error significantly, and "most of the gap" is not
+checked.  The share of the excess closed never exceeds one: a floor above
+what the best candidate leaves holds part of the effect itself.
 """
 
 from __future__ import annotations
@@ -70,7 +79,13 @@ MOST = 0.75
 #: :meth:`Evidence.decide`.
 SECOND_SHARE = 0.5
 
-STATUSES = ("explained", "ambiguous", "unexplained", "no_gap")
+#: At most this many rivals are named by an ``ambiguous`` verdict (best first).
+MAX_RIVALS = 3
+
+STATUSES = ("explained", "ambiguous", "unexplained", "no_gap", "cannot_tell")
+#: How the noise floor is known: ``measured`` (repeated readings of one memory state) or ``bound`` (an upper
+#: confidence bound from the base fit's residual); None: not at all.
+FLOOR_KINDS = ("measured", "bound")
 
 
 @dataclass(frozen=True)
@@ -90,6 +105,10 @@ class Verdict:
     share_closed: float | None = None
     effects: tuple[str, ...] = ()
     steps: tuple = ()
+    #: (ambiguous) the candidates the evidence cannot tell apart, best first, at most :data:`MAX_RIVALS`.
+    rivals: tuple[str, ...] = ()
+    #: Candidates that could not be assessed on these runs, named when the verdict leaves the gap open.
+    unassessed: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,6 +134,11 @@ class Evidence:
     pairs_after: np.ndarray | None = None
     #: For each candidate, the name of the more general effect it is a special case of (or None).
     within: tuple = ()
+    #: How ``floor`` is known (:data:`FLOOR_KINDS`): measured, or an upper bound (None: as measured).
+    floor_kind: str | None = None
+    #: With a bound for ``floor``: the point estimate of the floor ``(m,)`` the share of the excess is taken
+    #: against (None: the bound itself).
+    floor_estimate: np.ndarray | None = None
 
     @property
     def m(self) -> int:
@@ -211,30 +235,55 @@ class Evidence:
             return None
         return j, gains[j], z
 
+    @property
+    def measured_floor(self) -> bool:
+        """Whether the floor is measured (a floor), not merely bounded."""
+        return self.floor is not None and self.floor_kind in (None, "measured")
+
+    def excess(self) -> float | None:
+        """``mean r^2 - mean f^2``: the part of the held-out error the noise does not account for (um^2);
+        with a bounded floor, against its point estimate; None without a floor."""
+        if self.floor is None:
+            return None
+        ref = self.floor if self.measured_floor or self.floor_estimate is None else self.floor_estimate
+        return self.mse_base - float(np.mean(ref**2))
+
+    def _cannot_tell(self) -> Verdict:
+        rmse = float(np.sqrt(self.mse_base))
+        if self.floor is not None:
+            bound = float(np.sqrt(np.mean(self.floor**2)))
+            what = (f"the held-out error ({rmse:.3g}) is not significantly above what the base fit's residual "
+                    f"allows ({bound:.3g}, an upper bound on the noise)")
+        else:
+            what = "nothing bounds the noise either (the base fit leaves no residual degree of freedom)"
+        return Verdict("cannot_tell", None, None, (),
+                       f"no noise floor is measured (no repeated set-points, repeated runs or calibration "
+                       f"points) and {what}: repeat some set-points (rig acquire --sequence check repeats "
+                       f"15 % of its points) or the whole check run to measure it")
+
     def decide(self, exclude: tuple[str, ...] = ()) -> Verdict:
         """The verdict with the candidates in ``exclude`` left out of the library."""
         keep = [i for i, n in enumerate(self.names) if n not in exclude]
         gain, z, shrink = self.gain, self.z(), self.shrink
         names = self.names
+        excess = self.excess()
         if self.floor is not None:
-            excess = self.mse_base - float(np.mean(self.floor**2))
-            gap_present = excess > 0 and (self.gap_z() or 0.0) >= Z_GAP
+            gap_present = self.mse_base > float(np.mean(self.floor**2)) and (self.gap_z() or 0.0) >= Z_GAP
         else:
-            excess = None
             gap_present = self.structure
         significant = [i for i in keep if z[i] >= Z_SIGNIFICANT and gain[i] > 0]
         if not significant:
             if not gap_present:
-                why = ("the residual is at the noise floor and no candidate improves it"
-                       if excess is not None else "no candidate improves the residual and no residual bin stands out")
-                return Verdict("no_gap", None, None, (), why)
+                if not self.measured_floor:
+                    return self._cannot_tell()
+                return Verdict("no_gap", None, None, (), "the residual is at the noise floor and no candidate improves it")
             return Verdict("unexplained", None, None, (),
                            "the residual exceeds the noise floor but no candidate improves it significantly")
         # a special case that explains as well as its generalisation is named instead (fewer terms)
         best = self._special_case(max(significant, key=lambda i: gain[i]), significant,
                                   lambda b, i: _ratio(gain[b] - gain[i], self.difference_se(b, i)) >= Z_SEPARATED)
         share = float(min(gain[best] / excess, 1.0)) if excess is not None and excess > 0 else None
-        if excess is not None and not gap_present and (share is None or share < MOST):
+        if self.measured_floor and not gap_present and (share is None or share < MOST):
             return Verdict("no_gap", None, None, (),
                            f"the residual is at the noise floor; {names[best]} improves it a little, "
                            "not enough to stand for a gap")
@@ -251,7 +300,7 @@ class Evidence:
                 steps = ({"effect": names[best], "shrink": float(shrink[best]), "share_closed": share,
                           "z": float(z[best])},
                          {"effect": names[j], "shrink": float(1.0 - np.sqrt(mse_pair / self.mse[best])),
-                          "share_closed": float(gain2 / excess), "z": float(z2)})
+                          "share_closed": float(min(gain2 / excess, 1.0)), "z": float(z2)})
                 total = float(1.0 - np.sqrt(mse_pair / self.mse_base))
                 return Verdict("explained", names[best], total, (names[best], names[j]),
                                f"{names[best]} and {names[j]} together: each improves the held-out error clearly "
@@ -270,7 +319,7 @@ class Evidence:
             return Verdict(
                 "ambiguous", None, float(shrink[best]), contenders,
                 f"{names[best]} improves most but cannot be told apart from {', '.join(names[i] for i in tied)}",
-                share,
+                share, rivals=contenders[:MAX_RIVALS],
             )
         steps = ({"effect": names[best], "shrink": float(shrink[best]), "share_closed": share, "z": float(z[best])},)
         return Verdict("explained", names[best], float(shrink[best]), (names[best],),

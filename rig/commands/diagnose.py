@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from identify.diagnosis import CANDIDATES, DiagnosisSettings, diagnose as run_diagnosis
+from identify.diagnosis import NAMES, DiagnosisSettings, diagnose as run_diagnosis
 from identify.methods import METHODS
 
 from ..curve_selection import CURVE_CHOICES
@@ -25,10 +25,10 @@ def _effects(text: str | None) -> tuple[str, ...] | None:
     if text is None:
         return None
     names = tuple(n.strip() for n in text.split(",") if n.strip())
-    unknown = [n for n in names if n not in CANDIDATES]
+    unknown = [n for n in names if n not in NAMES]
     if unknown or not names:
         raise UserError(f"--effects {text!r}: unknown effect(s) {', '.join(unknown) or '(none given)'}; "
-                        f"choose from {', '.join(CANDIDATES)}")
+                        f"choose from {', '.join(NAMES)}")
     return names
 
 
@@ -46,7 +46,7 @@ def _effects(text: str | None) -> tuple[str, ...] | None:
 @click.option("--v-max", type=float, help="Upper end of the grid (V).")
 @click.option("--method", type=click.Choice(sorted(METHODS)), default="ls", show_default=True,
               help="Identification method of the base model.")
-@click.option("--effects", help=f"Candidate library, comma-separated [all: {', '.join(CANDIDATES)}].")
+@click.option("--effects", help=f"Candidate library, comma-separated [all: {', '.join(NAMES)}].")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the block bootstrap.")
 @click.option("--partial", is_flag=True, help="Accept partial sessions (not complete): use the points they hold.")
 @click.option("--fit-curves", type=click.Choice(CURVE_CHOICES), default="all", show_default=True,

@@ -9,7 +9,7 @@ import numpy as np
 
 from identify.diagnosis import Diagnosis
 from identify.diagnosis.binning import Binning
-from identify.diagnosis.candidates import CANDIDATES
+from identify.diagnosis.candidates import summary
 
 from ..output import format_table
 
@@ -48,6 +48,7 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
             "fit_only_rmse_um": d.fit_only_rmse_um,
             "measurement_noise_um": d.measurement_noise_um,
             "noise_source": noise.source if noise else None,
+            "noise_floor_kind": d.floor_kind,
             "noise_detail": noise.detail if noise else None,
             "recalibrated_directions": d.recalibrated,
             "noise_amplification": list(d.amplification),
@@ -67,6 +68,7 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
                 "visible": c.visible,
                 "note": c.note or None,
                 "ci_block_bootstrap": list(c.ci_block_bootstrap),
+                **({"levels": c.params["levels"]} if "levels" in c.params and c.effect == "resolution" else {}),
             }
             for c in d.candidates
         ],
@@ -75,6 +77,7 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
             "effect": d.verdict.effect,
             "shrink": d.verdict.shrink,
             "contenders": list(d.verdict.contenders),
+            "rivals": list(d.verdict.rivals),
             "reason": d.verdict.reason,
             "rmse_with_um": _rmse_with(d, leading),
             "share_closed": d.verdict.share_closed,
@@ -110,7 +113,10 @@ def identify_command(d: Diagnosis, fit: list[str]) -> str | None:
     parts = ["rig identify", path, "--method", d.method]
     if curves in ("even", "odd"):
         parts += ["--curves", curves]
-    return " ".join(parts + ["--with", ",".join(d.kept.effects)])
+    effects = [e for e in d.kept.effects if e != "resolution"]
+    if len(effects) < len(d.kept.effects):
+        parts += ["--levels", str(d.kept.params.get("resolution", {}).get("levels", d.grid.levels))]
+    return " ".join(parts + (["--with", ",".join(effects)] if effects else []))
 
 
 def kept_json(d: Diagnosis, fit: list[str]) -> dict[str, Any] | None:
@@ -160,15 +166,21 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
     v = d.verdict
     headline = {
         "explained": f"EXPLAINED by {' + '.join(v.effects) if v.effects else v.effect}",
-        "ambiguous": f"AMBIGUOUS between {', '.join(v.contenders)}",
+        "ambiguous": f"AMBIGUOUS between {', '.join(v.rivals or v.contenders)}",
         "unexplained": "UNEXPLAINED" + (f" (best partial: {v.contenders[0]})" if v.contenders else ""),
         "no_gap": "NO GAP",
+        "cannot_tell": "CANNOT TELL",
     }[v.status]
     lines.append(f"Verdict: {headline} -- {v.reason}.")
     noise = d.noise
-    floor = (f"noise floor {_fmt(d.noise_floor_um)} {u} (measurement noise {_fmt(d.measurement_noise_um)} {u} "
-             f"from {noise.source}, plus identification noise carried by the fit)" if noise else
-             "noise floor unknown")
+    if d.floor_kind == "bound":
+        floor = (f"noise floor not measured; at most {_fmt(d.noise_floor_um)} {u} (an upper bound from the base "
+                 f"fit's residual, plus identification noise carried by the fit)")
+    elif noise:
+        floor = (f"noise floor {_fmt(d.noise_floor_um)} {u} (measurement noise {_fmt(d.measurement_noise_um)} {u} "
+                 f"from {noise.source}, plus identification noise carried by the fit)")
+    else:
+        floor = "noise floor unknown"
     lines.append(f"How far: held-out RMSE {_fmt(d.baseline_rmse_um)} {u}; {floor}.")
     if d.recalibrated:
         lines.append(
@@ -225,7 +237,7 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
         lines.append(f"  {effect}: not assessed -- {reason}")
     if chosen is not None:
         lines.append("")
-        lines.append(f"{chosen}: {CANDIDATES[chosen].summary}; fitted: {_params_text(d.score(chosen).params)}")
+        lines.append(f"{chosen}: {summary(chosen)}; fitted: {_params_text(d.score(chosen).params)}")
     if drift_monitor is not None:
         lines.append("")
         lines.append(drift_text(drift_monitor, u))
