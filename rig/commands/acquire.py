@@ -72,6 +72,9 @@ def _report(summary: dict, as_json: bool) -> None:
     if s["n_reconnected"]:
         click.echo(f"{s['n_reconnected']} point(s) measured across a reconnection of the link (flagged RECONNECTED; "
                    "the instrument was checked to be the same one holding the set-point)")
+    if s["n_retried"]:
+        click.echo(f"{s['n_retried']} point(s) needed a repeated reading (flagged READ_RETRIED: a failed, "
+                   "mismatched, stale or out-of-range reply came first)")
     click.echo(f"rig time {format_duration(s['rig_time_s'])} on the {s['clock']} clock (wall {s['wall_s']:.3g} s)")
     if s["n_applied"] > s["n_measured"]:
         click.echo(
