@@ -337,3 +337,24 @@ def test_a_dwell_a_few_ms_longer_than_planned_does_not_make_a_target_unreachable
         assert row["reachable"], (k, row)
         assert row["predicted"] != pytest.approx(y, abs=1e-9)  # the recorded dwell did move the model's output
         assert row["predicted"] == pytest.approx(y, abs=1e-2)
+
+
+def test_rig_track_with_a_wrong_model_warns_and_exits_4(tmp_path):
+    """Issue 28, item 5: a sign-flipped model once ended complete, exit 0, no warning (rmse 32.9 um)."""
+    model_path, model = true_model(tmp_path)
+    flipped = json.loads(model_path.read_text())
+    flipped.update(density=(-np.asarray(flipped["density"])).tolist(), mu0=-flipped["mu0"], c_d=-flipped["c_d"],
+                   rmse_um=SIGMA)  # what rig identify --json would have said of its own fit
+    (tmp_path / "flipped.json").write_text(json.dumps(flipped))
+    k = np.arange(24)
+    target = targets_file(tmp_path, -1 + 4 * np.cos(2 * np.pi * k / 8))
+    r = rig_here("track", tmp_path / "flipped.json", "--target", target, "--out", tmp_path / "t.h5", "--json",
+                 "--no-progress")
+    assert r.code == 4, r.err
+    res = r.json()
+    assert res["status"] == "complete" and res["rmse_um"] > 1.0 and res["model_fit_rmse_um"] == SIGMA
+    assert "far beyond 10 x the model's own fit error" in res["warning"]
+    assert [ln for ln in r.err.splitlines() if ln.startswith("warning: ")] == [f"warning: {res['warning']}"]
+    # the right model: no warning, exit 0
+    r = rig_here("track", model_path, "--target", target, "--out", tmp_path / "ok.h5", "--json", "--no-progress")
+    assert r.code == 0 and r.json()["warning"] is None, r.err

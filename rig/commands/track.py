@@ -27,10 +27,21 @@ PLAN_OPTIONS = ("source", "target", "out", "model_name", "feedback", "dwell", "s
                 "notes")
 
 
+#: Exit code of a tracking run that completed but missed far beyond its model (docs/exit-codes.md).
+EXIT_TRACKING_OFF = 4
+
+
 def _report(result: dict, as_json: bool) -> None:
     if as_json:
         print_json(result)
-        return
+    else:
+        _print(result)
+    if result["warning"] is not None and result["status"] == "complete":
+        click.echo(f"warning: {result['warning']}", err=True)
+        raise click.exceptions.Exit(EXIT_TRACKING_OFF)
+
+
+def _print(result: dict) -> None:
     r = result
     click.echo(f"{r['session']}: {r['status']}, {r['n']} of {r['n_points']} targets measured; feedback {r['feedback']}; "
                f"model {r['model']!r} of {r['source']}")

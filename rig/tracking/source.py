@@ -18,6 +18,7 @@ Each failure is one line, exit code 2.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -69,8 +70,10 @@ def load_source(path: Path, name: str | None) -> ModelSource:
                         "JSON file holds one model)")
     model = load_model(path)
     method = str(model.metadata.get("method", "unknown")) if model.metadata else "unknown"
+    fit_rmse = json.loads(path.read_text(encoding="utf-8")).get("rmse_um")  # rig identify --json writes it
     record = ModelRecord(name="model", method=method, model=model, rows=np.zeros(0, np.int64),
-                         thermal_term=model.c_d != 0.0)
+                         thermal_term=model.c_d != 0.0,
+                         metrics={"rmse": float(fit_rmse)} if isinstance(fit_rmse, (int, float)) else {})
     return ModelSource(record, path, "json")
 
 
