@@ -109,14 +109,24 @@ class DemoResult:
         }
 
 
-def _fresh(out: Path) -> None:
-    """Refuse a directory that already holds a demo's sessions: they are never overwritten."""
+#: What a demo writes into ``--out``: its two sessions and its two folders of figures.
+WRITTEN = (FIT_SESSION, CHECK_SESSION, "report", "diagnosis")
+
+
+def _fresh(out: Path, force: bool = False) -> None:
+    """Refuse a directory that already holds anything a demo writes -- nothing the user has is overwritten
+    -- unless ``force``, which removes an earlier demo's two sessions (its figures are written over)."""
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out}: is a file, not a directory")
+    there = [name for name in WRITTEN if (out / name).exists() or (out / name).is_symlink()]
+    if there and not force:
+        raise UserError(f"--out {out}: already holds {', '.join(there)} from an earlier run; nothing is "
+                        "overwritten -- choose another --out, or add --force to replace them")
     for name in (FIT_SESSION, CHECK_SESSION):
-        if (out / name).exists():
-            raise UserError(f"--out {out}: already holds {name} from an earlier run; "
-                            "a session is never overwritten -- choose another --out")
+        if name in there:
+            if (out / name).is_dir():
+                raise UserError(f"--out {out}: {name} is a directory; it was not replaced")
+            (out / name).unlink()
 
 
 def _bench(s: DemoSettings) -> SimulatedBench:
@@ -182,12 +192,13 @@ def report_step(record: ModelRecord, check: Recording, out: Path, result: DemoRe
 
 
 def run_demo(settings: DemoSettings, out: str | Path,
-             progress: Callable[[str], None] | None = None) -> DemoResult:
+             progress: Callable[[str], None] | None = None, force: bool = False) -> DemoResult:
     """Acquire, identify, diagnose and report into the directory ``out`` (created; refused when it
-    already holds a demo's sessions).  ``progress`` is called with each step's name as it starts."""
+    already holds anything a demo writes, unless ``force``).  ``progress`` is called with each step's name
+    as it starts."""
     step = progress or (lambda name: None)
     out = Path(out)
-    _fresh(out)
+    _fresh(out, force)
     points = Excitation.damped(_bench(settings).grid(), True).inputs.size
     if settings.measurements is not None and not 1 <= settings.measurements <= points:
         raise UserError(f"--measurements {settings.measurements} must be between 1 and the {points} points "
