@@ -99,7 +99,8 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
 @click.option("--jobs", "-j", type=click.IntRange(min=1),
               help="Processes for several files (default: one per core, at most one per file; one when the fits are too small to repay starting workers).")
 @click.option("--yes", is_flag=True,
-              help="Fit even when the estimate is over the documented limits (30 min or 4 GB per file).")
+              help="Fit even when the estimate is over the documented limits (30 min or 4 GB per file), or the grid "
+                   "has far more cells (over 20 per point) than the measured points can identify.")
 def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, with_effects,
              as_json, save, name, store, force, partial, jobs, yes):
     """Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um).
@@ -120,7 +121,7 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
 
         parse_effects(effects)  # unknown names, options or repeats: one line before any file is read
     options = IdentifyOptions(levels, v_min, v_max, method, measurements, seed, thermal_term, store, name, force,
-                              partial, solver=solver, curves=curves, effects=effects)
+                              partial, solver=solver, curves=curves, effects=effects, yes=yes)
     targets = save_targets(save, paths)
     start = time.perf_counter()
     workers = default_workers(len(paths), jobs)
