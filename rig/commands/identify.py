@@ -18,7 +18,7 @@ from ..errors import UserError
 from ..fit_progress import fit_in_process
 from ..output import format_table, print_json, unit_token
 from ..parallel import default_workers, run_parallel, start_workers
-from ..reidentify import IdentifyOptions, fit_job, plan_jobs, result_dict, store_model
+from ..reidentify import IdentifyOptions, check_grid, fit_job, plan_jobs, result_dict, store_model
 
 
 #: What the worker processes import before they fork (fit_job and everything it needs).
@@ -121,7 +121,7 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
 
         parse_effects(effects)  # unknown names, options or repeats: one line before any file is read
     options = IdentifyOptions(levels, v_min, v_max, method, measurements, seed, thermal_term, store, name, force,
-                              partial, solver=solver, curves=curves, effects=effects, yes=yes)
+                              partial, solver=solver, curves=curves, effects=effects)
     targets = save_targets(save, paths)
     start = time.perf_counter()
     workers = default_workers(len(paths), jobs)
@@ -133,6 +133,8 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     costs = [job_cost(job) for job in planned]  # stated before a long fit, refused above the limits
     for job, cost in zip(planned, costs):
         refuse_unless_confirmed(f"rig identify {job.path}", cost.exceeded(), yes)
+    for job in planned:
+        check_grid(job, yes)  # after the estimate: a fit too big to run is refused as such first
     for job, cost in zip(planned, costs):
         if job.partial is not None:
             click.echo(f"warning: {job.path} is partial ({job.partial})", err=True)
