@@ -24,13 +24,12 @@ from rig.acquisition import (
     sequence_record,
     summarise,
 )
-from rig.acquisition.progress import format_duration
 from rig.acquisition.runner import resumable
 from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS
 from sessions import DataFileError, read_session
 
 from ..budget.acquisition import announce, planned_points, too_many_points
-from ..budget.limits import refuse_unless_confirmed
+from ..budget.limits import format_duration, refuse_unless_confirmed
 from ..output import print_json
 from ..run_driver import config_for_resume, drive
 
