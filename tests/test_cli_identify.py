@@ -138,3 +138,9 @@ def test_a_grid_that_does_not_match_the_session_is_named_and_too_many_cells_need
     r = rig_here("identify", s, "-L", 100, "--no-thermal-term", "--yes", "--no-store", "--json")
     assert r.code == 0 and r.json()["levels"] == 100, r.err  # asked for: fitted
     assert rig_here("identify", s, "--no-store").code == 0  # the session's own grid
+
+
+@pytest.mark.parametrize("spec", ["", " ", "creep,", ",creep"])
+def test_an_empty_effect_name_is_refused_not_taken_for_none(damped_csv, spec):
+    """Issue 28, item 15: --with '' was accepted as 'no effect'."""
+    assert_one_line_error(rig_here("identify", damped_csv[1], "-L", 4, "--with", spec), "names an empty effect")

@@ -358,3 +358,27 @@ def test_rig_track_with_a_wrong_model_warns_and_exits_4(tmp_path):
     # the right model: no warning, exit 0
     r = rig_here("track", model_path, "--target", target, "--out", tmp_path / "ok.h5", "--json", "--no-progress")
     assert r.code == 0 and r.json()["warning"] is None, r.err
+
+
+def test_messages_name_the_file_line_of_a_target(tmp_path):
+    """Issue 28, item 14: targets were numbered from 0 in messages while a user counts file lines."""
+    model_path, _ = true_model(tmp_path)
+    target = tmp_path / "t.csv"
+    target.write_text("t_s,target_um\n1,2\n2,3\n3,40\n")  # the third target is on line 4
+    for command, args in (("invert", [model_path, target, "--out", tmp_path / "v.csv"]),
+                          ("track", [model_path, "--target", target, "--out", tmp_path / "t.h5"])):
+        assert_one_line_error(rig_here(command, *args), f"{target}: the target on line 4 (40 um)")
+
+
+@pytest.mark.parametrize("command", ["invert", "predict"])
+def test_a_model_whose_range_contradicts_its_walls_is_refused(tmp_path, command):
+    """Issue 28, item 15: a model JSON whose v_min/v_max contradict its walls was accepted."""
+    model_path, model = true_model(tmp_path)
+    data = model.to_dict()
+    data["v_max"] = 3.0  # its walls end at 6 V
+    model_path.write_text(json.dumps(data))
+    trace = tmp_path / "tr.csv"
+    trace.write_text("t_s,v_V,deflection_um\n0,1,0\n1,2,0\n")
+    args = [model_path, targets_file(tmp_path, [1.0, 2.0]), "--out", tmp_path / "v.csv"] if command == "invert" else \
+        [model_path, trace]
+    assert_one_line_error(rig_here(command, *args), "v_max=3.0 but its walls end at 6")

@@ -115,7 +115,11 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     if name is not None and not store:
         raise UserError("--name stores the model; it cannot go with --no-store")
     paths = list(files)
-    effects = tuple(e.strip() for spec in with_effects for e in spec.split(",") if e.strip())
+    names = [e.strip() for spec in with_effects for e in spec.split(",")]
+    if "" in names:
+        given = ", ".join(f"--with {spec!r}" for spec in with_effects)
+        raise UserError(f"{given}: names an empty effect; give EFFECT[,EFFECT...] (or leave --with out for none)")
+    effects = tuple(names)
     if effects:
         from identify.effects import parse_effects
 

@@ -117,7 +117,7 @@ def track(ctx, source, target, out, model_name, config_path, feedback, dwell, sa
         check_window(src, window.min_V, window.max_V)
         targets = read_targets(target)
         domain = (window.min_V, window.max_V)
-        check_targets(src, targets.target_um, domain)
+        check_targets(src, targets, domain, target)
         plan = plan_track(src, targets, feedback, domain, dwell_s=dwell, saturate_s=saturate, readings=readings,
                           target_file={"name": target.name, "sha256": sha256_of(target)})
         acq = AcquisitionPlan.from_record(plan.record)
