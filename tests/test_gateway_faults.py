@@ -18,7 +18,7 @@ from sessions import SampleFlag, Status, read_session
 from .acquirekit import Child
 from .faultkit import FAST_SIM, SimServer
 from .modbusproxy import Fault, ModbusProxy
-from .test_faults import one_line
+from .test_faults import one_line, shared_server  # noqa: F401  (shared_server is a fixture)
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.slow]
 
@@ -27,9 +27,8 @@ RUN = ("--levels", 8, "--v-min", 1.0, "--dwell", 0.05, "--readings", 1)
 
 
 @pytest.fixture(scope="module")
-def server(tmp_path_factory):
-    with SimServer(tmp_path_factory.mktemp("gateway")) as s:
-        yield s
+def server(shared_server):
+    return shared_server
 
 
 @pytest.fixture(scope="module")
