@@ -17,7 +17,13 @@ Prints medians of repeated runs:
   and the time between two recorded samples minus the time spent inside
   them is what the sequencer itself costs -- planning, logging, the HDF5
   append and flush, the progress callback.  The HDF5 append + flush is
-  also timed alone.
+  also timed alone;
+* over Modbus TCP on loopback (``rig serve-sim`` in its own process, the
+  real clock, no dwell, K = 1): the time per applied point, and of it the
+  set-point read-back that the sequencer does after every write (issue 28:
+  a set-point acknowledged but not applied must not go unnoticed) -- the
+  cost a real bench pays per point for it.  Before the read-back existed
+  the second figure is 0.
 """
 
 from __future__ import annotations
@@ -148,6 +154,72 @@ def overhead(repeats: int, tmp: Path) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(over), np.concatenate(appends)
 
 
+SERVED = """driver = "modbus"
+[heater]
+max_V = 6.0
+[sensor]
+um_per_V = 5.0
+[modbus]
+host = "127.0.0.1"
+port = {port}
+[modbus.setpoint]
+address = 0
+[modbus.psd]
+address = 0
+"""
+
+
+class ReadBacks(Timed):
+    """The heater, with only its ``read_voltage`` calls timed (the set-point read-back)."""
+
+    def __getattr__(self, name):
+        return super().__getattr__(name) if name == "read_voltage" else getattr(self._target, name)
+
+
+def modbus_points(repeats: int, tmp: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Wall time per applied point (s) and the read-back's part of it (s), every point of every repeat, over
+    Modbus TCP to ``rig serve-sim`` in another process (L = 20 damped, no dwell, K = 1); and the wall time per
+    point of the same runs with the read-back switched off, alternated with them (same server, same load)."""
+    from drivers.config import loads_config
+
+    exe = str(Path(sys.executable).with_name("rig"))
+    server = subprocess.Popen([exe, "serve-sim", "--modbus", "127.0.0.1:0", "--json"], stdout=subprocess.PIPE,
+                              stderr=subprocess.DEVNULL, text=True)
+    try:
+        import json
+
+        port = int(json.loads(server.stdout.readline())["modbus"].rsplit(":", 1)[1])
+        cfg = loads_config(SERVED.format(port=port), "bench")
+        settings = DwellSettings(FixedDwell(0.0), readings=1)
+        per_point, readback, without = [], [], []
+        for r in range(2 * repeats):
+            off = r % 2 == 1
+            with open_rig(cfg) as rig:
+                rec = make_record(sequence_record("damped", rig.heater.window, levels=20), settings)
+                plan = AcquisitionPlan.from_record(rec)
+                writer = SessionWriter.create(tmp / f"modbus-{r}.h5", rec)
+                watch = Stopwatch()
+                stamps: list[tuple[float, float]] = []
+                seq = Sequencer(ReadBacks(rig.heater, watch), rig.sensor, rig.clock, plan, settings, writer,
+                                on_sample=lambda result: stamps.append((time.perf_counter(), watch.inside)))
+                if off:
+                    seq._read_back = lambda *args: None  # as before issue 28 (no-op where it does not exist)
+                seq.saturate()
+                stamps.append((time.perf_counter(), watch.inside))
+                seq.run()
+                writer.finish()
+            t = np.array(stamps)
+            if off:
+                without.append(np.diff(t[:, 0]))
+            else:
+                per_point.append(np.diff(t[:, 0]))
+                readback.append(np.diff(t[:, 1]))
+        return np.concatenate(per_point), np.concatenate(readback), np.concatenate(without)
+    finally:
+        server.terminate()
+        server.wait(10)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
@@ -166,6 +238,13 @@ def main() -> None:
               f"p99 {np.percentile(over, 99) * 1e3:.2f} ms over {over.size} samples; "
               f"of which HDF5 append + flush: median {np.median(appends) * 1e3:.3f} ms, "
               f"p99 {np.percentile(appends, 99) * 1e3:.2f} ms")
+        per_point, readback, without = modbus_points(args.repeats, tmp)
+        print(f"over Modbus TCP on loopback (rig serve-sim, L=20, no dwell, K=1): per point median "
+              f"{np.median(per_point) * 1e3:.3f} ms, p99 {np.percentile(per_point, 99) * 1e3:.2f} ms; of which the "
+              f"set-point read-back: median {np.median(readback) * 1e3:.3f} ms, "
+              f"p99 {np.percentile(readback, 99) * 1e3:.2f} ms, over {per_point.size} points; alternated runs "
+              f"without the read-back: per point median {np.median(without) * 1e3:.3f} ms, "
+              f"p99 {np.percentile(without, 99) * 1e3:.2f} ms")
     print(f"(pid {os.getpid()}, load average {os.getloadavg()[0]:.1f})")
 
 

@@ -16,16 +16,12 @@ from .errors import ContinuityError, DriverError, LimitError, SensorError
 from .guard import delay_keyboard_interrupt
 from .limits import HeaterLimits
 from .protocols import Calibration, Reading, SafeState, VoltageWindow
-from .setpoints import SetpointRules
+from .setpoints import SetpointRules, same_setpoint
 
 
 def _is_zero(volts: float) -> bool:
     return abs(volts) <= 1e-9
 
-
-def _close(a: float, b: float) -> bool:
-    """Two set-points (V) that are the same as far as the wire and a read-back can tell."""
-    return math.isclose(a, b, rel_tol=1e-6, abs_tol=1e-6)
 
 
 class GuardedHeater(abc.ABC):
@@ -149,7 +145,7 @@ class GuardedHeater(abc.ABC):
                 )
             if self.last_written is not None:
                 back = self.read_voltage()
-                if not _close(back, self.last_written):
+                if not same_setpoint(back, self.last_written):
                     raise ContinuityError(
                         f"after the link came back the output reads {back:g} V instead of the set-point "
                         f"{self.last_written:g} V: the instrument lost its output (restarted, or was reset), "
@@ -210,7 +206,8 @@ class PSDSensor(abc.ABC):
 
     def read(self) -> Reading:
         problem = ""
-        for _ in range(self.retries + 1):
+        failed_before = self._failed_requests()
+        for attempt in range(self.retries + 1):
             psd = float(self._read_psd())
             if not math.isfinite(psd):
                 problem = f"the PSD reading was {psd}"
@@ -221,11 +218,16 @@ class PSDSensor(abc.ABC):
                     "the laser spot is off the detector"
                 )
                 continue
-            return Reading(self._calibration.to_um(psd), psd, self._calibration)
+            retried = attempt > 0 or self._failed_requests() != failed_before
+            return Reading(self._calibration.to_um(psd), psd, self._calibration, retried)
         raise SensorError(f"no usable deflection reading after {self.retries + 1} attempts: {problem}")
 
     def close(self) -> None:
         """Release the transport."""
+
+    def _failed_requests(self) -> int:
+        """Requests on the link that failed and were retried so far (default: a link that never retries)."""
+        return 0
 
     @abc.abstractmethod
     def _read_psd(self) -> float:

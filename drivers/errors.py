@@ -50,6 +50,11 @@ class SetpointRefused(DeviceError):
     """The instrument refused a set-point (beyond its range): a plan with that point cannot run on it."""
 
 
+class SetpointNotApplied(DeviceError):
+    """The instrument acknowledged a set-point but its output reads back another value: it did not apply it
+    (a write dropped on the way, an output in local mode or interlocked)."""
+
+
 class SensorError(DriverError):
     """The PSD gave no usable reading (NaN, or saturated at a rail) after the retries."""
 

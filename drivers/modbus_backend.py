@@ -32,6 +32,7 @@ from .instrument_lock import host_port, serial_port_name
 from .errors import CodecError, ConfigError
 from .limits import HeaterLimits
 from .modbus_errors import TRANSIENT_CODES, exception_response, quiet_pymodbus
+from .modbus_replies import STRICT_READS, read_request, reply_mismatch, write_request
 from .modbus_registers import RegisterPoint
 from .protocols import Calibration, Clock
 from .setpoints import SetpointRules
@@ -41,7 +42,15 @@ quiet_pymodbus()
 
 
 def make_client(cfg: ModbusConfig) -> ModbusTcpClient | ModbusSerialClient:
-    """The pymodbus sync client for ``cfg`` (not connected yet)."""
+    """The pymodbus sync client for ``cfg`` (not connected yet), its register reads keeping their byte
+    counts for the reply check (:mod:`drivers.modbus_replies`)."""
+    client = _client(cfg)
+    for cls in STRICT_READS:
+        client.register(cls)
+    return client
+
+
+def _client(cfg: ModbusConfig) -> ModbusTcpClient | ModbusSerialClient:
     if cfg.transport == "rtu":
         return ModbusSerialClient(
             str(cfg.url),
@@ -79,6 +88,9 @@ class ModbusLink:
         self.reconnections = 0
         #: Connections established since opening: the first is 1, each later one a reconnection.
         self.connections = 0
+        #: Requests that failed and were retried (or given up) since opening: no reply, a bad or mismatched
+        #: reply, a dropped link.
+        self.failed_attempts = 0
 
     # ------------------------------------------------------------ connection
     def _connect_once(self) -> None:
@@ -103,18 +115,27 @@ class ModbusLink:
     def close(self) -> None:
         self._client.close()
 
+    def _failed(self) -> None:
+        self.failed_attempts += 1
+
     # ------------------------------------------------------------ requests
-    def _request(self, what: str, call: Callable[[Any], Any], decode: Callable[[Any], Any] | None = None) -> Any:
+    def _request(self, what: str, request: Any, decode: Callable[[Any], Any] | None = None) -> Any:
+        """Send the PDU ``request`` and check that the reply answers it (function code, unit, transaction,
+        byte count: :func:`drivers.modbus_replies.reply_mismatch`); a mismatch is retried like garbage."""
         def attempt() -> Any:
             self._connect_once()
             try:
-                response = call(self._client)
+                response = self._client.execute(False, request)
             except (ModbusException, OSError) as exc:
                 self._client.close()  # a late reply must never answer the next request
                 raise _retryable(exc)(str(exc)) from None
             except BaseException:  # interrupted mid-transaction (Ctrl-C, SIGTERM): same rule
                 self._client.close()
                 raise
+            mismatch = reply_mismatch(request, response)
+            if mismatch is not None:
+                self._client.close()  # whatever answers next may be the reply this one should have been
+                raise BadReply(mismatch)
             if isinstance(response, ExceptionResponse) or response.isError():
                 code = int(getattr(response, "exception_code", 0))
                 error = exception_response(code, f"{what} on {self.endpoint}")
@@ -130,26 +151,20 @@ class ModbusLink:
 
         return with_retries(
             attempt, reconnect=self._reconnect, backoff=self._backoff,
-            what=f"{what} on {self.endpoint}", sleep=self._sleep,
+            what=f"{what} on {self.endpoint}", sleep=self._sleep, on_failure=self._failed,
         )
 
     def read(self, point: RegisterPoint, what: str) -> float:
         """Read and decode ``point``."""
-        def call(client: Any) -> Any:
-            fn = client.read_holding_registers if point.table == "holding" else client.read_input_registers
-            return fn(point.address, count=point.count, device_id=self.cfg.unit_id)
-
         return self._request(
-            f"reading {what} ({point.describe()})", call, lambda response: point.decode(list(response.registers))
+            f"reading {what} ({point.describe()})", read_request(point.table, point.address, point.count, self.cfg.unit_id),
+            lambda response: point.decode(list(response.registers)),
         )
 
     def write(self, point: RegisterPoint, value: float, what: str) -> None:
         """Encode and write ``value`` to ``point`` (one request for all its registers)."""
-        words = point.encode(value)
-        self._request(
-            f"writing {what} ({point.describe()})",
-            lambda client: client.write_registers(point.address, words, device_id=self.cfg.unit_id),
-        )
+        self._request(f"writing {what} ({point.describe()})", write_request(point.address, point.encode(value),
+                                                                             self.cfg.unit_id))
 
 
 class ModbusHeater(GuardedHeater):
@@ -197,6 +212,9 @@ class ModbusPSD(PSDSensor):
 
     def _read_psd(self) -> float:
         return self.link.read(self.link.cfg.psd, "the PSD voltage")
+
+    def _failed_requests(self) -> int:
+        return self.link.failed_attempts
 
 
 # ---------------------------------------------------------------- the backend (see drivers.backends)

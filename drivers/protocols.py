@@ -64,12 +64,16 @@ class Reading:
     """One deflection reading: the raw PSD voltage and what it means.
 
     ``deflection_um`` is ``calibration.to_um(psd_V)``; both are kept so a
-    session can be re-calibrated offline.
+    session can be re-calibrated offline.  ``retried``: getting it took more
+    than one request -- a NaN or saturated value, a reply that did not answer
+    the request, a timeout or a dropped link came first (a sample measured
+    with it is flagged ``READ_RETRIED``).
     """
 
     deflection_um: float
     psd_V: float
     calibration: Calibration
+    retried: bool = False
 
 
 @dataclass(frozen=True)
@@ -93,9 +97,13 @@ class SafeState:
     unacknowledged_V: float | None = None
 
     def describe(self) -> str:
-        """One clause for messages and the session log: the fact, or plainly that it is unknown."""
+        """One clause for messages and the session log: the fact, or plainly that it is unknown -- led by what
+        was read back when the output answered with another value than 0 V."""
         if self.confirmed:
             return "heater at 0 V (0 V written and read back)"
+        if self.readback_V is not None:
+            return (f"heater NOT at 0 V: it reads back {self.readback_V:g} V after 0 V was written and "
+                    f"acknowledged; switch the heater supply off at the bench and check it ({self.problem})")
         held = []
         if self.last_V is not None:
             held.append(f"{self.last_V:g} V, the last set-point the instrument acknowledged")

@@ -50,8 +50,12 @@ def with_retries(
     backoff: Backoff,
     what: str,
     sleep: Callable[[float], None] = time.sleep,
+    on_failure: Callable[[], None] | None = None,
 ) -> T:
     """Run ``attempt`` until it succeeds; on a dropped link, a timeout or a bad reply, reconnect and retry.
+
+    ``on_failure`` is called once per failed attempt (the link counts them, so
+    that a reading which needed a retry is flagged as such).
 
     Raises :class:`ConnectionFailed`, :class:`DriverTimeout` or
     :class:`ProtocolError` (after the last failure's kind) naming ``what``
@@ -71,6 +75,8 @@ def with_retries(
             return attempt()
         except (LinkDropped, NoReply, BadReply) as exc:
             last = exc
+            if on_failure is not None:
+                on_failure()
     tries = backoff.retries + 1
     if isinstance(last, NoReply):
         raise DriverTimeout(f"{what}: no reply after {tries} attempt(s): {last}")

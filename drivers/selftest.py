@@ -4,7 +4,8 @@
 when every step passed.  Keys (a contract): ``driver``, ``connected``,
 ``heater_ok``, ``sensor_ok``, ``deflection_um``, ``safe_state``; also
 ``passed``, ``endpoint``, ``test_voltage_V``, ``readback_V``, ``psd_V``,
-``deflection_heated_um``, ``error`` and ``seconds``; and the window check:
+``deflection_heated_um``, ``error``, ``seconds`` and ``safe_state_V`` (the
+heater read back after 0 V was written; null when it was not read); and the window check:
 ``window_V`` (the set-points the heater accepts, ``[min, max]``),
 ``full_scale_V`` (the instrument's, when it or the configuration says;
 null otherwise) and ``window_ok`` (false when the window reaches beyond
@@ -14,7 +15,6 @@ instrument).
 
 from __future__ import annotations
 
-import math
 import time
 from typing import Any
 
@@ -22,10 +22,7 @@ from .config import RigConfig, default_config
 from .errors import DriverError, InstrumentBusy
 from .protocols import Clock
 from .rig import open_rig
-
-
-def _close(a: float, b: float) -> bool:
-    return math.isclose(a, b, rel_tol=1e-6, abs_tol=1e-6)
+from .setpoints import same_setpoint
 
 
 def selftest(config: RigConfig | None = None, *, clock: Clock | None = None) -> dict[str, Any]:
@@ -50,6 +47,7 @@ def selftest(config: RigConfig | None = None, *, clock: Clock | None = None) -> 
         "window_V": None,
         "full_scale_V": None,
         "window_ok": False,
+        "safe_state_V": None,
     }
     errors: list[str] = []
     start = time.perf_counter()
@@ -81,7 +79,7 @@ def selftest(config: RigConfig | None = None, *, clock: Clock | None = None) -> 
                 sent = rig.heater.last_written
                 back = rig.heater.read_voltage()
                 report["readback_V"] = back
-                report["heater_ok"] = sent is not None and _close(back, sent)
+                report["heater_ok"] = sent is not None and same_setpoint(back, sent)
                 if not report["heater_ok"]:
                     errors.append(f"heater: set {volts:g} V but read back {back:g} V")
                 if report["sensor_ok"]:
@@ -91,7 +89,8 @@ def selftest(config: RigConfig | None = None, *, clock: Clock | None = None) -> 
             try:
                 rig.zero()
                 back0 = rig.heater.read_voltage()
-                report["safe_state"] = _close(back0, 0.0)
+                report["safe_state_V"] = back0
+                report["safe_state"] = same_setpoint(back0, 0.0)
                 if not report["safe_state"]:
                     errors.append(f"safe state: heater reads {back0:g} V after being set to 0 V")
             except DriverError as exc:

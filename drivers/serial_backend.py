@@ -49,6 +49,11 @@ class SerialLink:
         self.reconnections = 0
         #: Times the port was opened: the first is 1, each later one a reconnection.
         self.connections = 0
+        #: Requests that failed and were retried (or given up) since opening.
+        self.failed_attempts = 0
+
+    def _failed(self) -> None:
+        self.failed_attempts += 1
 
     # ------------------------------------------------------------ connection
     def _open_once(self) -> None:
@@ -131,7 +136,7 @@ class SerialLink:
             return self._receive(line)
 
         reply = with_retries(attempt, reconnect=self._reconnect, backoff=self._backoff,
-                             what=f"querying '{line}' on {self.endpoint}", sleep=self._sleep)
+                             what=f"querying '{line}' on {self.endpoint}", sleep=self._sleep, on_failure=self._failed)
         prefix = self.cfg.commands.error_prefix
         if prefix and reply.startswith(prefix):
             raise DeviceError(f"{self.endpoint} answered '{line}' with an error: {reply}")
@@ -147,7 +152,7 @@ class SerialLink:
                 raise BadReply(f"'{line}' got {reply!r}, not a number") from None
 
         return with_retries(attempt, reconnect=lambda: None, backoff=self._backoff,
-                            what=f"querying '{line}' on {self.endpoint}", sleep=self._sleep)
+                            what=f"querying '{line}' on {self.endpoint}", sleep=self._sleep, on_failure=self._failed)
 
     def last_error(self) -> str:
         """The instrument's answer to the error query ('' when there is none or no error query)."""
@@ -209,6 +214,9 @@ class SerialPSD(PSDSensor):
 
     def _read_psd(self) -> float:
         return self.link.query_number(self.link.cfg.commands.measure_psd)
+
+    def _failed_requests(self) -> int:
+        return self.link.failed_attempts
 
 
 # ---------------------------------------------------------------- the backend (see drivers.backends)

@@ -29,6 +29,11 @@ from .limits import HeaterLimits
 from .protocols import VoltageWindow
 
 
+def same_setpoint(a: float, b: float) -> bool:
+    """Two set-points (V) that are the same as far as the wire and a read-back can tell."""
+    return math.isclose(a, b, rel_tol=1e-6, abs_tol=1e-6)
+
+
 class SetpointRules:
     """``limits``; ``on_wire(v)``: the value the instrument receives for ``v`` (V; may raise
     :class:`CodecError`); ``full_scale_V``: the instrument's output range +-V (None: unknown)."""

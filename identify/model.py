@@ -179,6 +179,11 @@ class PreisachModel:
         grid = Grid(levels, walls[0], walls[-1])
         if not np.allclose(walls, grid.walls, rtol=0, atol=1e-9 * (grid.v_max - grid.v_min)):
             raise IdentifyError("model walls are not uniformly spaced")
+        for key, wall in (("v_min", walls[0]), ("v_max", walls[-1])):
+            said = data.get(key)
+            if said is not None and not (isinstance(said, (int, float)) and abs(said - wall) <= 1e-9 * abs(walls[-1] - walls[0])):
+                raise IdentifyError(f"model says {key}={said!r} but its walls {'start' if key == 'v_min' else 'end'} at "
+                                    f"{wall:g}: the model contradicts itself (edited by hand?)")
         if density.shape != (levels, levels):
             raise IdentifyError(
                 f"model 'density' must be a {levels}x{levels} list of lists, got shape {density.shape}"

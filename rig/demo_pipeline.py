@@ -109,14 +109,25 @@ class DemoResult:
         }
 
 
-def _fresh(out: Path) -> None:
-    """Refuse a directory that already holds a demo's sessions: they are never overwritten."""
+#: What a demo writes into ``--out``: its two sessions and its two folders of figures.
+WRITTEN = (FIT_SESSION, CHECK_SESSION, "report", "diagnosis")
+
+
+def _fresh(out: Path, force: bool = False) -> list[Path]:
+    """Refuse a directory that already holds anything a demo writes -- nothing the user has is overwritten
+    -- unless ``force``; returns an earlier demo's sessions that ``force`` will replace (removed only when
+    the new run starts: bad input never costs them) -- its figures are written over."""
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out}: is a file, not a directory")
-    for name in (FIT_SESSION, CHECK_SESSION):
-        if (out / name).exists():
-            raise UserError(f"--out {out}: already holds {name} from an earlier run; "
-                            "a session is never overwritten -- choose another --out")
+    there = [name for name in WRITTEN if (out / name).exists() or (out / name).is_symlink()]
+    if there and not force:
+        raise UserError(f"--out {out}: already holds {', '.join(there)} from an earlier run; nothing is "
+                        "overwritten -- choose another --out, or add --force to replace them")
+    sessions = [out / name for name in (FIT_SESSION, CHECK_SESSION) if name in there]
+    for path in sessions:
+        if path.is_dir():
+            raise UserError(f"--out {out}: {path.name} is a directory; it was not replaced")
+    return sessions
 
 
 def _bench(s: DemoSettings) -> SimulatedBench:
@@ -182,18 +193,21 @@ def report_step(record: ModelRecord, check: Recording, out: Path, result: DemoRe
 
 
 def run_demo(settings: DemoSettings, out: str | Path,
-             progress: Callable[[str], None] | None = None) -> DemoResult:
+             progress: Callable[[str], None] | None = None, force: bool = False) -> DemoResult:
     """Acquire, identify, diagnose and report into the directory ``out`` (created; refused when it
-    already holds a demo's sessions).  ``progress`` is called with each step's name as it starts."""
+    already holds anything a demo writes, unless ``force``).  ``progress`` is called with each step's name
+    as it starts."""
     step = progress or (lambda name: None)
     out = Path(out)
-    _fresh(out)
+    replaced = _fresh(out, force)
     points = Excitation.damped(_bench(settings).grid(), True).inputs.size
     if settings.measurements is not None and not 1 <= settings.measurements <= points:
         raise UserError(f"--measurements {settings.measurements} must be between 1 and the {points} points "
                         f"of the damped oscillation at L={settings.levels}")
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
+    for path in replaced:
+        path.unlink()
     result = DemoResult(settings, out, out / FIT_SESSION, out / CHECK_SESSION)
     try:
         step("1/4 acquiring")

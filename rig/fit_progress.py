@@ -15,7 +15,7 @@ import threading
 import time
 from typing import TextIO
 
-from .budget.limits import format_seconds
+from .budget.limits import format_duration
 
 #: Seconds between redraws.
 REDRAW_S = 0.5
@@ -50,8 +50,8 @@ class FitProgress:
         """The status line at time ``now`` (``time.monotonic()``)."""
         spent = (time.monotonic() if now is None else now) - self._start
         left = self.estimate_s - spent
-        when = f"about {format_seconds(left)} left" if left > 0 else "taking longer than estimated"
-        elapsed = f"{spent:.1f} s" if spent < 60 else format_seconds(spent)
+        when = f"about {format_duration(left)} left" if left > 0 else "taking longer than estimated"
+        elapsed = f"{spent:.1f} s" if spent < 60 else format_duration(spent)
         return f"{self.label}: {self.stage_name}, {elapsed}, {when}"
 
     def _draw(self) -> None:

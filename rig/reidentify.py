@@ -24,6 +24,7 @@ its writer).
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -189,6 +190,8 @@ class IdentifyJob:
     curve_selection: str = "all"
     effects: tuple[str, ...] = ()
     run: Run | None = None
+    #: The grid the session records (None: none), which :func:`check_grid` compares ``grid`` with.
+    recorded_grid: Grid | None = None
 
 
 def _store_as(data: Recording, o: IdentifyOptions, grid: Grid) -> str | None:
@@ -252,7 +255,35 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
         curve_selection=o.curves,
         effects=o.effects,
         run=run,
+        recorded_grid=data.grid,
     )
+
+
+#: A fit with more than this many cells per measured point is refused unless --yes: the data cannot
+#: identify them (compressive fits of the paper use up to about 10).
+CELLS_PER_POINT = 20
+
+
+def check_grid(job: IdentifyJob, yes: bool) -> None:
+    """Name the real cause when the grid does not fit the data: far more cells than measured points (refused
+    unless ``yes``), or a grid other than the session's own on whose walls every measured input sits."""
+    grid, recorded = job.grid, job.recorded_grid
+    measured = job.inputs[job.rows[job.rows < job.inputs.size]]
+    n = int(measured.size)
+    mismatch = ""
+    if recorded is not None and (grid.levels, grid.v_min, grid.v_max) != (recorded.levels, recorded.v_min,
+                                                                       recorded.v_max):
+        mismatch = (f"the grid does not match the session's inputs, which were planned on its own grid (L = "
+                    f"{recorded.levels} on [{recorded.v_min:g}, {recorded.v_max:g}] {job.input_unit})")
+    if grid.n_cells > CELLS_PER_POINT * n and not yes:
+        most = int((math.isqrt(8 * n + 1) - 1) // 2)
+        use = f"-L {recorded.levels} (or no -L)" if mismatch else f"at most -L {most}"
+        raise UserError(f"{job.path}: L = {grid.levels} has {grid.n_cells:,} cells but the {n} measured points can "
+                        f"identify at most {n} (a grid of L = {most}){'; ' + mismatch if mismatch else ''}; nothing "
+                        f"was fitted -- use {use}, or add --yes to fit it anyway")
+    if mismatch and job.thermal_term and n and np.all(grid.on_walls(measured)):
+        raise UserError(f"{job.path}: every measured input sits on a wall of the L = {grid.levels} grid, where the "
+                        f"thermal term cannot be identified, because {mismatch}; use -L {recorded.levels} (or no -L)")
 
 
 def _effects_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: IdentifyOptions) -> Run:

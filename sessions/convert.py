@@ -192,4 +192,10 @@ def trace_of_session(session: Session, measured_only: bool = False) -> Trace:
     if rows.size == 0:
         raise DataFileError(f"{session.path}: no measured samples to export")
     s = session.samples[rows]
+    for name, column in (("t_s", "t_s"), ("v_V", "input"), ("deflection_um", "output")):
+        bad = np.flatnonzero(~np.isfinite(s[column]))
+        if bad.size:  # a CSV trace holds finite numbers only: rig import would refuse the file written
+            k = int(rows[bad[0]])
+            raise DataFileError(f"{session.path}: row {k} has {column} {float(s[column][bad[0]])!r}, which a CSV trace cannot "
+                                f"hold ({bad.size} such row(s)); nothing was written")
     return Trace(s["t_s"].copy(), s["input"].copy(), s["output"].copy(), s["dwell_s"].copy())

@@ -32,10 +32,16 @@ SETPOINT_HEADER = ("t_s", "v_V", "target_um", "predicted_um", "reachable")
 
 @dataclass(frozen=True)
 class Targets:
-    """A target sequence: ``t_s`` (s, increasing) and ``target_um`` (um), both ``(n,)``."""
+    """A target sequence: ``t_s`` (s, increasing) and ``target_um`` (um), both ``(n,)``; ``lines`` the line of
+    the file each target was read from (None when not read from a file), for messages."""
 
     t_s: np.ndarray
     target_um: np.ndarray
+    lines: tuple[int, ...] | None = None
+
+    def where(self, k: int) -> str:
+        """Target ``k`` as a person finds it: the file line it is on, else its 1-based number."""
+        return f"line {self.lines[k]}" if self.lines is not None else f"target {k + 1}"
 
     def __len__(self) -> int:
         return int(self.target_um.size)
@@ -57,7 +63,7 @@ def read_targets(path: str | os.PathLike) -> Targets:
     rows = read_with_header(path, HEADER)
     while len(rows) > 1 and not any(c.strip() for c in rows[-1]):
         rows.pop()  # blank lines at the end of the file
-    t, y = [], []
+    t, y, lines = [], [], []
     for lineno, row in enumerate(rows[1:], start=2):
         where = f"{path}: line {lineno}"
         if not any(c.strip() for c in row):
@@ -70,11 +76,12 @@ def read_targets(path: str | os.PathLike) -> Targets:
                 raise DataFileError(f"{where}: {name} is empty (a gap in the target); nothing is filled in")
         t.append(finite_number(row[0].strip(), where, "t_s"))
         y.append(finite_number(row[1].strip(), where, "target_um"))
+        lines.append(lineno)
         if len(t) > 1 and t[-1] <= t[-2]:
             raise DataFileError(f"{where}: t_s {t[-1]:g} does not increase (the row before has {t[-2]:g})")
     if not t:
         raise DataFileError(f"{path}: no targets after the header")
-    return Targets(np.asarray(t, dtype=float), np.asarray(y, dtype=float))
+    return Targets(np.asarray(t, dtype=float), np.asarray(y, dtype=float), tuple(lines))
 
 
 def write_targets(path: str | os.PathLike, targets: Targets) -> None:

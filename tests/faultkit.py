@@ -76,9 +76,9 @@ class SimServer:
     def journal_file(self, generation: int) -> Path:
         return self.journal_path.with_suffix(f".{generation}.journal")
 
-    def client_toml(self, timeout: float = 0.3, retries: int = 1, extra: str = "") -> str:
-        """rig.toml for ``rig acquire`` against this server."""
-        return (HEADER.format(driver="modbus") + f'[modbus]\nhost = "127.0.0.1"\nport = {self.port}\n'
+    def client_toml(self, timeout: float = 0.3, retries: int = 1, extra: str = "", port: int | None = None) -> str:
+        """rig.toml for ``rig acquire`` against this server (or against ``port``: a proxy in front of it)."""
+        return (HEADER.format(driver="modbus") + f'[modbus]\nhost = "127.0.0.1"\nport = {port or self.port}\n'
                 + FAST_LINK.format(timeout=timeout, retries=retries) + extra + self.register_map)
 
     def client_config(self, path: Path, **kw) -> Path:

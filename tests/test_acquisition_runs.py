@@ -285,3 +285,17 @@ def test_resume_keeps_a_per_point_dwell_schedule(tmp_path):
     np.testing.assert_allclose(a.outputs, b.outputs, rtol=0, atol=1e-12)
     with pytest.raises(AcquisitionError, match="3 per-point dwell times for a plan of 7 points"):
         make_record(record, DwellSettings(FixedDwell(20.0), schedule=(1.0, 2.0, 3.0)))
+
+
+@pytest.mark.parametrize("fault", ["nan_readings", "saturated_readings"])
+def test_a_reading_retried_after_nan_or_saturated_values_flags_its_point(tmp_path, fault):
+    """Issue 28, item 4: READ_RETRIED (bit 32) is set wherever a reading was retried, and nowhere else."""
+    def inject(result):
+        if result.index == 5:
+            setattr(rig.device.faults, fault, 2)  # point 6's first two readings; the third is good
+
+    with open_rig(config()) as rig:
+        acquire(rig, record(rig), tmp_path / "s.h5", hooks=Hooks(on_sample=inject))
+    s = read_session(tmp_path / "s.h5")
+    assert s.status is Status.COMPLETE
+    assert np.flatnonzero(s.samples["flags"] & SampleFlag.READ_RETRIED).tolist() == [6]

@@ -15,7 +15,7 @@ import pytest
 
 from identify import Excitation
 from rig.budget.acquisition import MAX_POINTS, estimate_acquisition, planned_points
-from rig.budget.limits import Exceeded, format_seconds, refuse_unless_confirmed
+from rig.budget.limits import Exceeded, format_duration, refuse_unless_confirmed
 from rig.errors import UserError
 
 from .cli import assert_one_line_error, rig_here
@@ -63,7 +63,7 @@ def test_a_run_states_its_points_and_rig_time_first_and_the_estimate_is_the_run(
 
     cost = estimate_acquisition(s.excitation.measure, reversal_points(s.inputs), 3.0, 0.5, None, False, True)
     assert cost.rig_time_s - 3.0 == pytest.approx(summary["rig_time_s"], abs=1e-6)
-    assert format_seconds(cost.rig_time_s) in plan_line
+    assert format_duration(cost.rig_time_s) in plan_line
     assert cost.session_bytes == pytest.approx(out.stat().st_size, rel=0.5)
 
 
@@ -73,12 +73,28 @@ def test_a_week_of_real_rig_time_is_refused_unless_confirmed(tmp_path):
     out = tmp_path / "s.h5"
     # 200 random points at an hour each: 8.3 days on a real clock
     run = rig_here("acquire", "--config", config, "--sequence", "random", "--dwell", 3600, "--out", out)
-    assert_one_line_error(run, "rig time 8.4 days (limit 7 days)", "nothing was started", "--yes")
+    assert_one_line_error(run, "rig time 8 d 09:00:00 (limit 7 d 00:00:00)", "nothing was started", "--yes")
     assert not out.exists()
     # the same plan on the virtual clock costs no waiting: allowed (and stated)
     run = rig_here("acquire", "--sequence", "random", "--points", 20, "--dwell", 3600, "--out", out, "--no-progress")
     assert run.code == 0, run.err
-    assert "rig time 21 h (virtual clock" in run.err
+    assert "rig time 21:00:00 (virtual clock" in run.err
+
+
+def test_one_duration_convention_in_the_plan_the_progress_and_the_summary(tmp_path):
+    """Issue 28, item 13: '--levels 200 --dwell 3600' planned '2.3 years' and reported 'rig time 20102:00:00'."""
+    import re
+
+    run = rig_here("acquire", "--levels", 40, "--dwell", 3600, "--readings", 1, "--out", tmp_path / "s.h5",
+                   "--progress")
+    assert run.code == 0, run.err
+    durations = re.findall(r"rig time ([^(,\]\n]*?)(?: \(| on |,|\]|$)", run.err + run.out, re.M)
+    assert len(durations) >= 3, (run.err, run.out)  # the plan, the progress bar, the summary
+    for d in durations:  # the progress bar passes through hours on its way
+        assert re.fullmatch(r"\d+ d \d\d:\d\d:\d\d|\d+:\d\d:\d\d", d), (d, durations)
+    assert re.fullmatch(r"\d+ d \d\d:\d\d:\d\d", durations[0]) and re.fullmatch(r"\d+ d \d\d:\d\d:\d\d", durations[-1])
+    assert format_duration(3.9) == "3.9 s" and format_duration(42) == "42 s" and format_duration(9340) == "2:35:40"
+    assert format_duration(20102 * 3600) == "837 d 14:00:00"
 
 
 def test_confirmation_lets_a_job_over_the_limits_run():

@@ -57,8 +57,21 @@ def test_demo_never_overwrites_an_earlier_run(tmp_path):
     out = tmp_path / "demo"
     assert rig_here("demo", "--levels", 4, "--measurements", 10, "--effect", "none", "--out", out).code == 0
     before = {p.name: _digest(p) for p in out.glob("*.h5")}
-    assert_one_line_error(rig_here("demo", "--levels", 4, "--out", out), "already holds fit.h5", "never overwritten")
+    assert_one_line_error(rig_here("demo", "--levels", 4, "--out", out), "already holds fit.h5", "nothing is overwritten")
     assert {p.name: _digest(p) for p in out.glob("*.h5")} == before
+    # issue 28, item 9: a report/ or diagnosis/ the user keeps there is not written over either
+    mine = tmp_path / "mine"
+    (mine / "report").mkdir(parents=True)
+    (mine / "report" / "report.md").write_text("my notes")
+    assert_one_line_error(rig_here("demo", "--levels", 4, "--out", mine), "already holds report", "--force")
+    assert (mine / "report" / "report.md").read_text() == "my notes" and not (mine / "fit.h5").exists()
+    # --force replaces an earlier demo's files -- but bad input costs nothing, --force or not
+    assert_one_line_error(rig_here("demo", "--levels", 4, "--measurements", 500, "--out", out, "--force"),
+                          "--measurements 500")
+    assert {p.name: _digest(p) for p in out.glob("*.h5")} == before
+    from rig.demo_pipeline import _fresh
+
+    assert sorted(p.name for p in _fresh(out, force=True)) == ["check.h5", "fit.h5"]
     assert_one_line_error(rig_here("demo", "--levels", 4, "--measurements", 500, "--out", tmp_path / "d2"),
                           "--measurements 500", "between 1 and the 12 points")
     assert not (tmp_path / "d2").exists()

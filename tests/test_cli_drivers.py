@@ -56,12 +56,16 @@ def test_selftest_passes_against_serve_sim_and_fails_cleanly_once_it_is_gone(tmp
     assert "8 set-point request(s) received, 0 refused; heater at 0 V" in err
 
     run = rig_here("selftest", "--config", modbus, "--json")
-    assert run.code == 1
+    assert run.code == 3  # a fault of the instrument or its link, as for rig acquire (1 is an internal error)
     report = run.json()
     assert SELFTEST_KEYS <= set(report)
     assert report["connected"] is False and report["safe_state"] is False and report["passed"] is False
     assert "refused or unreachable" in report["error"]
     assert "Traceback" not in run.err
+    # the table claims nothing that was not read (issue 28, item 8)
+    run = rig_here("selftest", "--config", modbus)
+    assert run.code == 3 and "read back at 0 V" not in run.out, run.out
+    assert "nothing was driven or read" in run.out and "not run" in run.out
 
 
 def test_bad_invocations_are_one_line_errors(tmp_path):

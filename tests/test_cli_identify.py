@@ -121,3 +121,26 @@ def test_predict_bad_model(tmp_path, damped_csv):
     bad.write_text(json.dumps({"walls": [0, 1], "mu0": 0}))
     assert_one_line_error(rig_here("predict", bad, path, "--json"), "missing")
     assert_one_line_error(rig_here("predict", tmp_path / "none.json", path), "no such file")
+
+
+def test_a_grid_that_does_not_match_the_session_is_named_and_too_many_cells_need_yes(tmp_path):
+    """Issue 28, item 12: -L 1000 on an L = 5 session blamed 'every measured input sits on a wall', and with
+    --no-thermal-term fitted 500,500 cells from 17 points, exit 0, without a word."""
+    s = tmp_path / "S.h5"
+    assert rig_here("acquire", "--levels", 5, "--dwell", 1, "--readings", 1, "--out", s).code == 0
+    before = digest(s)
+    for extra in ((), ("--no-thermal-term",)):
+        assert_one_line_error(rig_here("identify", s, "-L", 100, *extra), "5,050 cells", "17 measured points",
+                              "can identify at most 17", "does not match the session's inputs", "L = 5", "--yes")
+    assert_one_line_error(rig_here("identify", s, "-L", 10), "every measured input sits on a wall of the L = 10 grid",
+                          "does not match the session's inputs", "-L 5")
+    assert digest(s) == before
+    r = rig_here("identify", s, "-L", 100, "--no-thermal-term", "--yes", "--no-store", "--json")
+    assert r.code == 0 and r.json()["levels"] == 100, r.err  # asked for: fitted
+    assert rig_here("identify", s, "--no-store").code == 0  # the session's own grid
+
+
+@pytest.mark.parametrize("spec", ["", " ", "creep,", ",creep"])
+def test_an_empty_effect_name_is_refused_not_taken_for_none(damped_csv, spec):
+    """Issue 28, item 15: --with '' was accepted as 'no effect'."""
+    assert_one_line_error(rig_here("identify", damped_csv[1], "-L", 4, "--with", spec), "names an empty effect")

@@ -174,3 +174,34 @@ def test_cli_reports_damaged_sessions_in_one_line(good, tmp_path, case, command)
     args = ["identify", path, "--json"] if command == "identify" else ["export", path, "--csv", tmp_path / "o.csv"]
     assert_one_line_error(rig_here(*args), message)
     assert digest(path) == before and not (tmp_path / "o.csv").exists()
+
+
+def test_import_force_never_replaces_an_acquisition_unless_it_is_named(tmp_path):
+    """Issue 28, item 10: rig import --force replaced a session holding acquired samples, which rig acquire
+    itself never does."""
+    acq = tmp_path / "acq.h5"
+    assert rig_here("acquire", "--levels", 3, "--dwell", 1, "--readings", 1, "--out", acq).code == 0
+    truth = known_model(3, 0.0, 6.0)
+    v = damped_oscillation(truth.grid, thermal_term=True)
+    csv = write_csv(tmp_path / "t.csv", v, truth.predict(v))
+    before = digest(acq)
+    assert_one_line_error(rig_here("import", csv, "--out", acq, "--force"), "acquired sample", "--replace-session")
+    assert digest(acq) == before
+    assert_one_line_error(rig_here("import", csv, "--out", acq, "--replace-session", csv), "names another file")
+    assert digest(acq) == before
+    assert rig_here("import", csv, "--out", acq, "--replace-session", acq).code == 0
+    assert read_session(acq).excitation.extra["source"] == "t.csv"
+
+
+def test_export_refuses_a_value_a_csv_trace_cannot_hold(tmp_path):
+    """Issue 28, item 15: rig export wrote an inf input that rig import then rejected."""
+    import h5py
+
+    acq = tmp_path / "acq.h5"
+    assert rig_here("acquire", "--levels", 3, "--dwell", 1, "--readings", 1, "--out", acq).code == 0
+    with h5py.File(acq, "r+") as f:
+        row = f["samples"][4]
+        row["input"] = np.inf
+        f["samples"][4] = row
+    assert_one_line_error(rig_here("export", acq, "--csv", tmp_path / "x.csv"), "row 4 has input inf")
+    assert not (tmp_path / "x.csv").exists()

@@ -105,8 +105,9 @@ def test_heater_limits_must_allow_the_safe_state():
 def test_sensor_retries_nan_and_saturation_then_gives_a_clear_error():
     s = ScriptedPSD([math.nan, 9.95, 1.1], saturation_V=9.9, retries=2)
     reading = s.read()
-    assert reading == Reading((1.1 - 0.1) * 5.0, 1.1, Calibration(5.0, 0.1))
+    assert reading == Reading((1.1 - 0.1) * 5.0, 1.1, Calibration(5.0, 0.1), retried=True)  # flags READ_RETRIED
     assert s.calls == 3
+    assert ScriptedPSD([1.2], saturation_V=9.9).read().retried is False
     s = ScriptedPSD([math.nan, -10.0, math.nan], saturation_V=9.9, retries=2)
     with pytest.raises(SensorError, match="3 attempts.*NaN|3 attempts.*nan"):
         s.read()

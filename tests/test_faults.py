@@ -132,7 +132,7 @@ def reference(tmp_path_factory, shared_server):
 def test_an_instrument_restarted_in_a_fresh_state_stops_the_run_and_resume_completes_it_right(tmp_path, reference):
     with SimServer(tmp_path, register_map=BOOT_MAP) as server:
         path = tmp_path / "run.h5"
-        cfg = server.client_config(tmp_path / "rig.toml", retries=40)  # ~4 s of reconnection attempts
+        cfg = server.client_config(tmp_path / "rig.toml", retries=100)  # ~10 s of reconnection attempts (load)
         child = Child("--config", cfg, *RUN, "--out", path)
         wait_for_samples(path, 8, child=child)
         server.restart()  # killed, and a fresh device listens on the same port ~1 s later

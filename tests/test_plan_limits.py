@@ -63,7 +63,7 @@ def test_a_window_beyond_the_simulators_full_scale_fails_selftest_and_is_refused
     cfg = tmp_path / "sim.toml"
     cfg.write_text(BEYOND.format(driver="sim") + "[sim]\ntime_constant_s = 0.0\n")
     run = rig_here("selftest", "--config", cfg, "--json")
-    assert run.code == 1, run.out
+    assert run.code == 3, run.out
     report = run.json()
     assert report["window_ok"] is False and report["full_scale_V"] == 10.0 and not report["passed"]
     assert report["window_V"] == [0.0, pytest.approx(10.00035)] and "full scale of +-10 V" in report["error"]
@@ -79,7 +79,7 @@ def test_an_instrument_that_reports_its_full_scale_gets_nothing_beyond_it(tmp_pa
         cfg.write_text(modbus_toml(bench, extra="[modbus.setpoint]\naddress = 0\n" + PSD + full_scale)
                        .replace("max_V = 6.0", "max_V = 12.0"))
         run = rig_here("selftest", "--config", cfg, "--json")
-        assert run.code == 1 and run.json()["window_ok"] is False and run.json()["full_scale_V"] == 10.0
+        assert run.code == 3 and run.json()["window_ok"] is False and run.json()["full_scale_V"] == 10.0
         run = rig_here("acquire", "--config", cfg, *QUICK, "--out", tmp_path / "s.h5")
         assert_one_line_error(run, "full scale of +-10 V")
         assert not (tmp_path / "s.h5").exists()

@@ -337,3 +337,48 @@ def test_a_dwell_a_few_ms_longer_than_planned_does_not_make_a_target_unreachable
         assert row["reachable"], (k, row)
         assert row["predicted"] != pytest.approx(y, abs=1e-9)  # the recorded dwell did move the model's output
         assert row["predicted"] == pytest.approx(y, abs=1e-2)
+
+
+def test_rig_track_with_a_wrong_model_warns_and_exits_4(tmp_path):
+    """Issue 28, item 5: a sign-flipped model once ended complete, exit 0, no warning (rmse 32.9 um)."""
+    model_path, model = true_model(tmp_path)
+    flipped = json.loads(model_path.read_text())
+    flipped.update(density=(-np.asarray(flipped["density"])).tolist(), mu0=-flipped["mu0"], c_d=-flipped["c_d"],
+                   rmse_um=SIGMA)  # what rig identify --json would have said of its own fit
+    (tmp_path / "flipped.json").write_text(json.dumps(flipped))
+    k = np.arange(24)
+    target = targets_file(tmp_path, -1 + 4 * np.cos(2 * np.pi * k / 8))
+    r = rig_here("track", tmp_path / "flipped.json", "--target", target, "--out", tmp_path / "t.h5", "--json",
+                 "--no-progress")
+    assert r.code == 4, r.err
+    res = r.json()
+    assert res["status"] == "complete" and res["rmse_um"] > 1.0 and res["model_fit_rmse_um"] == SIGMA
+    assert "far beyond 10 x the model's own fit error" in res["warning"]
+    assert [ln for ln in r.err.splitlines() if ln.startswith("warning: ")] == [f"warning: {res['warning']}"]
+    # the right model: no warning, exit 0
+    r = rig_here("track", model_path, "--target", target, "--out", tmp_path / "ok.h5", "--json", "--no-progress")
+    assert r.code == 0 and r.json()["warning"] is None, r.err
+
+
+def test_messages_name_the_file_line_of_a_target(tmp_path):
+    """Issue 28, item 14: targets were numbered from 0 in messages while a user counts file lines."""
+    model_path, _ = true_model(tmp_path)
+    target = tmp_path / "t.csv"
+    target.write_text("t_s,target_um\n1,2\n2,3\n3,40\n")  # the third target is on line 4
+    for command, args in (("invert", [model_path, target, "--out", tmp_path / "v.csv"]),
+                          ("track", [model_path, "--target", target, "--out", tmp_path / "t.h5"])):
+        assert_one_line_error(rig_here(command, *args), f"{target}: the target on line 4 (40 um)")
+
+
+@pytest.mark.parametrize("command", ["invert", "predict"])
+def test_a_model_whose_range_contradicts_its_walls_is_refused(tmp_path, command):
+    """Issue 28, item 15: a model JSON whose v_min/v_max contradict its walls was accepted."""
+    model_path, model = true_model(tmp_path)
+    data = model.to_dict()
+    data["v_max"] = 3.0  # its walls end at 6 V
+    model_path.write_text(json.dumps(data))
+    trace = tmp_path / "tr.csv"
+    trace.write_text("t_s,v_V,deflection_um\n0,1,0\n1,2,0\n")
+    args = [model_path, targets_file(tmp_path, [1.0, 2.0]), "--out", tmp_path / "v.csv"] if command == "invert" else \
+        [model_path, trace]
+    assert_one_line_error(rig_here(command, *args), "v_max=3.0 but its walls end at 6")

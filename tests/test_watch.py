@@ -31,7 +31,7 @@ from rig.watch.watcher import SessionWatch, WatchOptions, Workers
 from .cli import assert_one_line_error, rig_here
 from .conftest import digest, known_model
 from .sessionkit import append_point, assert_rows_as_written, excitation, write_run
-from .watchkit import get, wait_state
+from .watchkit import get, wait_state, watch
 
 FIXED = {"policy": "fixed", "seconds": 10.0, "transit_s": 1.0, "readings": 4}
 
@@ -423,3 +423,80 @@ def test_the_where_bins_appear_once_the_check_run_exists(tmp_path):
         assert w["n_check"] == 60 and w["verdict"] in ("explained", "ambiguous", "unexplained", "no_gap")
         svg = get(s.base + "figure/where.svg")[2].decode()
         assert "Where the model misses on the check runs" in svg and "heater voltage (V)" in svg
+
+
+# ---------------------------------------------------------------- issue 28: the live page under load, typos
+def _status_line(port: int, request: bytes, deadline: float) -> str:
+    """Send ``request`` on a fresh connection; the reply's status line, 'refused', or 'silent' at ``deadline``."""
+    import socket
+
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=max(0.1, deadline - time.monotonic())) as sock:
+            sock.sendall(request)
+            data = b""
+            while b"\r\n" not in data and time.monotonic() < deadline:
+                sock.settimeout(max(0.05, deadline - time.monotonic()))
+                chunk = sock.recv(256)
+                if not chunk:
+                    break
+                data += chunk
+            return data.split(b"\r\n")[0].decode() if b"\r\n" in data else "silent"
+    except (ConnectionRefusedError, ConnectionResetError):
+        return "refused"
+    except OSError:
+        return "silent"
+
+
+@pytest.mark.slow
+def test_a_burst_of_200_simultaneous_requests_is_answered_within_10_s(tmp_path):
+    import threading
+
+    path, _ = write_run(tmp_path / "s.h5", known_model(3, 0, 6), Excitation.random(Grid(3, 0, 6), 10, seed=2))
+    with watch(path) as w:
+        port = w.ready["port"]
+        request = f"GET /api/state HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n".encode()
+        deadline = time.monotonic() + 10.0
+        answers: list[str] = []
+        go = threading.Barrier(200, timeout=10)
+
+        def one() -> None:
+            go.wait()
+            answers.append(_status_line(port, request, deadline))
+
+        threads = [threading.Thread(target=one, daemon=True) for _ in range(200)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(15)
+    assert len(answers) == 200 and "silent" not in answers, {a: answers.count(a) for a in set(answers)}
+    assert answers.count("HTTP/1.1 200 OK") >= 190, {a: answers.count(a) for a in set(answers)}
+
+
+def test_a_request_naming_two_hosts_is_a_bad_request(tmp_path):
+    path, _ = write_run(tmp_path / "s.h5", known_model(3, 0, 6), Excitation.random(Grid(3, 0, 6), 10, seed=2))
+    with Served(path, method="ls") as s:
+        port = s.server.port
+        deadline = time.monotonic() + 10
+        two = f"GET /api/state HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nHost: evil.example\r\nConnection: close\r\n\r\n"
+        assert _status_line(port, two.encode(), deadline) == "HTTP/1.1 400 Bad Request"
+        one = f"GET /api/state HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n"
+        assert _status_line(port, one.encode(), deadline) == "HTTP/1.1 200 OK"
+
+
+def test_waiting_for_a_session_that_does_not_appear_says_so_and_lists_those_that_exist(tmp_path):
+    write_run(tmp_path / "run1.h5", known_model(3, 0, 6), Excitation.random(Grid(3, 0, 6), 10, seed=2))
+    with watch(tmp_path / "nosuch.h5") as w:
+        w.ready
+        end = time.monotonic() + 15
+        while "nothing has appeared" not in w.err and time.monotonic() < end:
+            time.sleep(0.1)
+        err = w.err
+    line = next((ln for ln in err.splitlines() if "nothing has appeared" in ln), err)
+    assert f"nothing has appeared at {tmp_path / 'nosuch.h5'}" in line and "run1.h5" in line, err
+
+
+def test_an_ipv4_mapped_loopback_address_is_loopback():
+    from drivers.net import is_loopback
+
+    assert is_loopback("::ffff:127.0.0.1") and is_loopback("[::ffff:127.0.0.2]") and is_loopback("::1")
+    assert not is_loopback("::ffff:10.0.0.1") and not is_loopback("example.org")

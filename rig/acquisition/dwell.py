@@ -27,7 +27,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 from drivers.protocols import Clock, DeflectionSensor
 
@@ -46,14 +46,25 @@ class DwellOutcome:
     timed_out: bool = False
 
 
-def average_reading(sensor: DeflectionSensor, k: int) -> tuple[float, float]:
-    """Mean deflection (um) and mean PSD voltage (V) of ``k`` readings taken back to back."""
+class Averaged(NamedTuple):
+    """The mean deflection (um) and PSD voltage (V) of readings taken back to back; ``retried``: one of
+    them needed a second request (see :attr:`drivers.protocols.Reading.retried`)."""
+
+    deflection_um: float
+    psd_V: float
+    retried: bool
+
+
+def average_reading(sensor: DeflectionSensor, k: int) -> Averaged:
+    """The mean of ``k`` readings taken back to back."""
     d = p = 0.0
+    retried = False
     for _ in range(k):
         r = sensor.read()
         d += r.deflection_um
         p += r.psd_V
-    return d / k, p / k
+        retried |= r.retried
+    return Averaged(d / k, p / k, retried)
 
 
 def sleep_until(clock: Clock, deadline: float, stop: Callable[[], bool], slice_s: float = SLICE_S) -> bool:
@@ -200,7 +211,7 @@ class SettleDwell:
         t0 = clock.now()
         end = t0 + self.max_s
         while True:
-            cond.observe(clock.now(), average_reading(sensor, self.readings)[0])
+            cond.observe(clock.now(), average_reading(sensor, self.readings).deflection_um)
             if cond.met:
                 return DwellOutcome(clock.now() - t0, True)
             now = clock.now()

@@ -7,12 +7,18 @@ of the plan:
 
 1. a safe point: if a pause was requested (Ctrl-C), the heater stays at the
    current set-point and ``on_pause`` decides to resume or abort;
-2. the set-point ``v_k`` is applied;
+2. the set-point ``v_k`` is applied and read back from the instrument: one
+   it acknowledged but does not hold raises
+   :class:`~drivers.errors.SetpointNotApplied` before anything is measured
+   against it;
 3. it waits: the full dwell policy where the point is measured or is a
    reversal point (which must be reached at rest, see
    :mod:`identify.acquisition_plan`), a transit elsewhere; a pause request
    during the wait pauses, and the wait starts again on resume;
-4. a measured point averages ``readings`` sensor readings;
+4. a measured point averages ``readings`` sensor readings, each checked by
+   the suspenders of :mod:`~rig.acquisition.suspenders` (a stale or stuck
+   PSD is read again, and fails the run when it persists); a point whose
+   reading needed a second request is flagged ``READ_RETRIED``;
 5. the link is checked (:meth:`~drivers.protocols.HeaterOutput.verify`):
    if it was re-established meanwhile, the instrument was found to be the
    same one still holding the set-point (which was sent again), and the
@@ -44,13 +50,16 @@ from typing import Protocol
 
 import numpy as np
 
+from drivers.errors import SetpointNotApplied
 from drivers.protocols import Clock, DeflectionSensor, HeaterOutput
+from drivers.setpoints import same_setpoint
 from sessions import SampleFlag
 
 from .dwell import DwellOutcome, DwellPolicy, DwellSettings, average_reading
 from .interrupt import Aborted, Decision, PauseInfo, PauseSwitch
 from .plan import AcquisitionPlan
 from .setpoints import SetpointSource
+from .suspenders import CheckedSensor
 
 #: The set-point of negative saturation: heater off, the beam at ambient, below the whole transition.
 SATURATION_V = 0.0
@@ -114,7 +123,7 @@ class Sequencer:
         setpoints: SetpointSource | None = None,
     ) -> None:
         self.heater = heater
-        self.sensor = sensor
+        self.sensor = CheckedSensor(sensor)
         self.clock = clock
         self.plan = plan
         self.settings = settings
@@ -159,10 +168,22 @@ class Sequencer:
     def _apply(self, k: int, volts: float, settle: bool, phase: str) -> DwellOutcome:
         self._checkpoint(k, "before point" if phase == "run" else phase)
         self.heater.set_voltage(volts)
-        self._setpoint = volts
+        self._setpoint = self.sensor.setpoint_V = volts
+        self._read_back(k, volts, phase)
         s = self.settings
         policy = (s.dwell if phase == "saturation" else s.at(k)) if settle else s.transit
         return self._wait(policy, k, "dwell" if phase == "run" else phase)
+
+    def _read_back(self, k: int, volts: float, phase: str) -> None:
+        """The instrument must hold the set-point it acknowledged: else nothing may be measured against it."""
+        sent = self.heater.check_setpoint(volts)
+        back = self.heater.read_voltage()
+        if not same_setpoint(back, sent):
+            where = f"point {k}" if phase == "run" else f"the {phase} at point {k}"
+            raise SetpointNotApplied(
+                f"the heater reads back {back:g} V at {where}, where {sent:g} V was written and acknowledged: the "
+                "instrument did not apply the set-point (a write dropped on the way, an output in local mode)"
+            )
 
     def _link_checked(self, k: int, phase: str) -> bool:
         """Whether the link was re-established during point ``k`` (checked, set-point re-sent, logged)."""
@@ -180,7 +201,7 @@ class Sequencer:
     def saturate(self) -> tuple[DwellOutcome, float]:
         """Negative saturation: heater at 0 V for a full dwell; returns the wait and the deflection (um) there."""
         out = self._apply(0, SATURATION_V, True, "saturation")
-        deflection, _ = average_reading(self.sensor, self.settings.readings)
+        deflection = average_reading(self.sensor, self.settings.readings).deflection_um
         self._link_checked(0, "saturation")
         self.recorder.log(
             "saturated", f"negative saturation: {SATURATION_V:g} V for {out.waited_s:.6g} s, deflection {deflection:.6g} um"
@@ -223,11 +244,14 @@ class Sequencer:
                 policy = self.settings.at(k) if settle[k] else self.settings.transit
                 v = float(source.setpoint(k, self.clock.now() - t0, getattr(policy, "seconds", math.nan)))
             out = self._apply(k, v, bool(settle[k]), "run")
+            retried = False
             if measure[k]:
-                deflection, psd = average_reading(self.sensor, readings)
+                deflection, psd, retried = average_reading(self.sensor, readings)
             else:
                 deflection = psd = math.nan
             f = int(flags[k]) | extra
+            if retried:
+                f |= SampleFlag.READ_RETRIED
             if out.timed_out:
                 f |= SampleFlag.DWELL_TIMEOUT
             if self._link_checked(k, "run"):

@@ -17,14 +17,9 @@ from typing import TextIO
 
 from tqdm import tqdm
 
+from ..budget.limits import format_duration
 from .engine import PointResult
 from .interrupt import Decision, PauseInfo
-
-
-def format_duration(seconds: float) -> str:
-    """``H:MM:SS`` (rounded to the second)."""
-    s = int(round(seconds))
-    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
 
 
 class ProgressBar:

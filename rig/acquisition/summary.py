@@ -66,6 +66,7 @@ def summarise(session: Session, outcome: RunOutcome) -> dict[str, Any]:
         "n_settled": int(rows["settled"].sum()),
         "n_timeouts": int(np.count_nonzero(rows["flags"] & SampleFlag.DWELL_TIMEOUT)),
         "n_reconnected": int(np.count_nonzero(rows["flags"] & SampleFlag.RECONNECTED)),
+        "n_retried": int(np.count_nonzero(rows["flags"] & SampleFlag.READ_RETRIED)),
         "resumed": outcome.start > 0 or any(e.event == "reopened" for e in session.events),
         "n_replayed": outcome.replayed,
         "dwell": exc.dwell,

@@ -10,6 +10,6 @@ what it will cost, and refuses a job above the limits documented there
 
 from __future__ import annotations
 
-from .limits import Exceeded, format_bytes, format_seconds, refuse_unless_confirmed
+from .limits import Exceeded, format_bytes, format_duration, refuse_unless_confirmed
 
-__all__ = ["Exceeded", "format_bytes", "format_seconds", "refuse_unless_confirmed"]
+__all__ = ["Exceeded", "format_bytes", "format_duration", "refuse_unless_confirmed"]

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .limits import Exceeded, format_bytes, format_seconds
+from .limits import Exceeded, format_bytes, format_duration
 
 #: Most applied points a plan may have without --yes.
 MAX_POINTS = 1_000_000
@@ -83,10 +83,10 @@ class AcquisitionCost:
     def describe(self) -> str:
         """One line for the operator, before anything is applied."""
         at_most = "at most " if self.settle else ""
-        clock = (f"virtual clock: about {format_seconds(self.wall_s)} of wall time" if self.virtual_clock
+        clock = (f"virtual clock: about {format_duration(self.wall_s)} of wall time" if self.virtual_clock
                  else "real clock")
         return (f"plan: {self.points:,} points ({self.measured:,} measured, {self.reversals:,} reversal points); "
-                f"rig time {at_most}{format_seconds(self.rig_time_s)} ({clock}); "
+                f"rig time {at_most}{format_duration(self.rig_time_s)} ({clock}); "
                 f"session file about {format_bytes(self.session_bytes)}, memory about "
                 f"{format_bytes(self.memory_bytes)}")
 
@@ -94,7 +94,7 @@ class AcquisitionCost:
         """The documented limits this plan is over."""
         out = too_many_points(self.points)
         if not self.virtual_clock and self.rig_time_s > MAX_REAL_RIG_TIME_S:
-            out.append(Exceeded("rig time", format_seconds(self.rig_time_s), format_seconds(MAX_REAL_RIG_TIME_S)))
+            out.append(Exceeded("rig time", format_duration(self.rig_time_s), format_duration(MAX_REAL_RIG_TIME_S)))
         return out
 
 

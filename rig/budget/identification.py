@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .limits import Exceeded, format_bytes, format_seconds
+from .limits import Exceeded, format_bytes, format_duration
 
 #: Longest estimated fit, per file, without --yes (s).
 MAX_SECONDS = 30 * 60.0
@@ -70,14 +70,14 @@ class FitCost:
     def describe(self) -> str:
         """One line: what is fitted and what it will cost."""
         return (f"{self.method} on L = {self.levels} ({self.parameters:,} parameters), {self.measured:,} measured "
-                f"of {self.points:,} points: about {format_seconds(self.seconds)} and "
+                f"of {self.points:,} points: about {format_duration(self.seconds)} and "
                 f"{format_bytes(self.memory_bytes)} (estimated)")
 
     def exceeded(self) -> list[Exceeded]:
         """The documented limits this fit is over."""
         out = []
         if self.seconds > MAX_SECONDS:
-            out.append(Exceeded("estimated time", format_seconds(self.seconds), format_seconds(MAX_SECONDS)))
+            out.append(Exceeded("estimated time", format_duration(self.seconds), format_duration(MAX_SECONDS)))
         if self.memory_bytes > MAX_MEMORY_BYTES:
             out.append(Exceeded("estimated memory", format_bytes(self.memory_bytes), format_bytes(MAX_MEMORY_BYTES)))
         return out

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..errors import UserError
@@ -26,17 +27,18 @@ def refuse_unless_confirmed(job: str, exceeded: list[Exceeded], yes: bool) -> No
                         "or add --yes to run it anyway")
 
 
-def format_seconds(seconds: float) -> str:
-    """A duration to the precision an estimate has: ``0.3 s``, ``12 s``, ``4.2 min``, ``2.6 h``, ``31 days``,
-    ``32 years``."""
+def format_duration(seconds: float) -> str:
+    """A duration, in the one convention every ``rig`` message uses (plans, limits, progress, summaries):
+    ``0.012 s`` and ``42 s`` under a minute, ``2:35:40`` (H:MM:SS) under a day, ``837 d 14:00:00`` beyond."""
     s = float(seconds)
-    if s < 10:
-        return f"{s:.2g} s"
-    for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("h", 3600), ("min", 60)):
-        if s >= 2 * size if unit in ("years", "days") else s >= size:
-            value = s / size
-            return f"{value:.2g} {unit}" if value < 10 else f"{value:.0f} {unit}"
-    return f"{s:.0f} s"
+    if not math.isfinite(s):
+        return f"{s} s"
+    if abs(s) < 59.5:
+        return f"{s:.2g} s" if abs(s) < 10 else f"{s:.0f} s"
+    whole = int(round(s))
+    days, rest = divmod(whole, 86400)
+    clock = f"{rest // 3600}:{rest // 60 % 60:02d}:{rest % 60:02d}"
+    return clock if days == 0 else f"{days} d {rest // 3600:02d}:{rest // 60 % 60:02d}:{rest % 60:02d}"
 
 
 def format_bytes(n: float) -> str:

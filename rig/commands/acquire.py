@@ -24,13 +24,12 @@ from rig.acquisition import (
     sequence_record,
     summarise,
 )
-from rig.acquisition.progress import format_duration
 from rig.acquisition.runner import resumable
 from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS
 from sessions import DataFileError, read_session
 
 from ..budget.acquisition import announce, planned_points, too_many_points
-from ..budget.limits import refuse_unless_confirmed
+from ..budget.limits import format_duration, refuse_unless_confirmed
 from ..output import print_json
 from ..run_driver import config_for_resume, drive
 
@@ -72,6 +71,9 @@ def _report(summary: dict, as_json: bool) -> None:
     if s["n_reconnected"]:
         click.echo(f"{s['n_reconnected']} point(s) measured across a reconnection of the link (flagged RECONNECTED; "
                    "the instrument was checked to be the same one holding the set-point)")
+    if s["n_retried"]:
+        click.echo(f"{s['n_retried']} point(s) needed a repeated reading (flagged READ_RETRIED: a failed, "
+                   "mismatched, stale or out-of-range reply came first)")
     click.echo(f"rig time {format_duration(s['rig_time_s'])} on the {s['clock']} clock (wall {s['wall_s']:.3g} s)")
     if s["n_applied"] > s["n_measured"]:
         click.echo(

@@ -47,8 +47,9 @@ def demo_truth(levels: int) -> PreisachModel:
 @click.option("--out", "-o", "out_dir", type=click.Path(path_type=Path),
               help="Directory for the sessions, the diagnosis figures and the report "
                    "[a new directory rig-demo-* in the system's temporary directory].")
+@click.option("--force", is_flag=True, help="Replace an earlier demo's sessions, report/ and diagnosis/ in --out.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def demo(levels, measurements, effect, strength, seed, out_dir, as_json):
+def demo(levels, measurements, effect, strength, seed, out_dir, force, as_json):
     """Acquire, identify, diagnose and report on the simulated VO2 rig, in seconds.
 
     Records an identification run (damped oscillation) and a held-out check
@@ -68,7 +69,7 @@ def demo(levels, measurements, effect, strength, seed, out_dir, as_json):
     out = Path(tempfile.mkdtemp(prefix="rig-demo-")) if out_dir is None else out_dir
     # on a terminal, the step it is in and about how long is left (about 5 s at L = 30 on a quiet machine)
     with FitProgress("rig demo", DEMO_SECONDS * max(1.0, (levels / 30) ** 2)) as shown:
-        result = run_demo(settings, out, progress=shown.stage)
+        result = run_demo(settings, out, progress=shown.stage, force=force)
     if as_json:
         print_json(result.to_json())
         return

@@ -19,7 +19,7 @@ from ..errors import UserError
 from ..fit_progress import fit_in_process
 from ..output import format_table, print_json, unit_token
 from ..parallel import default_workers, run_parallel, start_workers
-from ..reidentify import IdentifyOptions, fit_job, plan_jobs, result_dict, store_model
+from ..reidentify import IdentifyOptions, check_grid, fit_job, plan_jobs, result_dict, store_model
 
 
 #: What the worker processes import before they fork (fit_job and everything it needs).
@@ -99,7 +99,8 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
 @click.option("--jobs", "-j", type=click.IntRange(min=1),
               help="Processes for several files (default: one per core, at most one per file; one when the fits are too small to repay starting workers).")
 @click.option("--yes", is_flag=True,
-              help="Fit even when the estimate is over the documented limits (30 min or 4 GB per file).")
+              help="Fit even when the estimate is over the documented limits (30 min or 4 GB per file), or the grid "
+                   "has far more cells (over 20 per point) than the measured points can identify.")
 def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, with_effects,
              as_json, save, name, store, force, partial, jobs, yes):
     """Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um).
@@ -114,7 +115,11 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     if name is not None and not store:
         raise UserError("--name stores the model; it cannot go with --no-store")
     paths = list(files)
-    effects = tuple(e.strip() for spec in with_effects for e in spec.split(",") if e.strip())
+    names = [e.strip() for spec in with_effects for e in spec.split(",")]
+    if "" in names:
+        given = ", ".join(f"--with {spec!r}" for spec in with_effects)
+        raise UserError(f"{given}: names an empty effect; give EFFECT[,EFFECT...] (or leave --with out for none)")
+    effects = tuple(names)
     if effects:
         from identify.effects import parse_effects
 
@@ -132,6 +137,8 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     costs = [job_cost(job) for job in planned]  # stated before a long fit, refused above the limits
     for job, cost in zip(planned, costs):
         refuse_unless_confirmed(f"rig identify {job.path}", cost.exceeded(), yes)
+    for job in planned:
+        check_grid(job, yes)  # after the estimate: a fit too big to run is refused as such first
     for job, cost in zip(planned, costs):
         if job.partial is not None:
             click.echo(f"warning: {job.path} is partial ({job.partial})", err=True)

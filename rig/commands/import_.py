@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from sessions import read_session, read_trace
+from sessions import DataFileError, SampleFlag, read_session, read_trace
 from sessions.convert import import_trace
 from sessions.drift import DRIFT_MODES
 from sessions.forc_import import import_forc
@@ -17,6 +17,21 @@ from ..output import print_json
 
 #: Formats ``rig import`` reads.
 FORMATS = ("csv", "micromag")
+
+
+def _refuse_replacing_an_acquisition(out: Path, force: bool) -> None:
+    """``--force`` replaces an earlier import; a session holding acquired samples -- which rig acquire itself
+    never replaces -- only when named with ``--replace-session``."""
+    if not (force and out.is_file()):
+        return
+    try:
+        session = read_session(out)
+    except DataFileError:
+        return  # not a readable session: --force decides, as for any file
+    acquired = int((session.samples["flags"] & SampleFlag.IMPORTED == 0).sum())
+    if acquired:
+        raise UserError(f"{out}: holds {acquired} acquired sample(s) (rig acquire or rig track), which --force does "
+                        f"not replace; nothing was written -- to replace it after all, name it: --replace-session {out}")
 
 
 @click.command(name="import")
@@ -40,9 +55,11 @@ FORMATS = ("csv", "micromag")
                    "recorded in the session.")
 @click.option("--operator", default="", help="Who made the measurement.")
 @click.option("--notes", default="", help="Free-text notes stored with the session.")
-@click.option("--force", is_flag=True, help="Replace --out if it exists.")
+@click.option("--force", is_flag=True, help="Replace --out if it exists (an earlier import; never an acquisition).")
+@click.option("--replace-session", "replace", type=click.Path(dir_okay=False, path_type=Path),
+              help="Replace this session even though it holds acquired samples (name --out again).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def import_(file, out, fmt, levels, v_min, v_max, drift, dwell_from_time, operator, notes, force, as_json):
+def import_(file, out, fmt, levels, v_min, v_max, drift, dwell_from_time, operator, notes, force, replace, as_json):
     """Turn FILE (a CSV trace or a MicroMag FORC file) into the session OUT.
 
     A CSV trace is t_s,v_V,deflection_um with an optional fourth column
@@ -56,6 +73,12 @@ def import_(file, out, fmt, levels, v_min, v_max, drift, dwell_from_time, operat
     A FORC file becomes every applied point of its protocol (saturation,
     calibration field, each curve), its calibration points a drift monitor.
     """
+    if replace is not None:
+        if not (out.exists() and replace.exists() and out.samefile(replace)):
+            raise UserError(f"--replace-session {replace}: names another file than --out {out}")
+        force = True
+    else:
+        _refuse_replacing_an_acquisition(out, force)
     forc = None
     if fmt == "micromag":
         if dwell_from_time:

@@ -42,7 +42,7 @@ def invert(source, target, out, model_name, force, as_json):
         raise DataFileError(f"{out}: is an input of this command; write the set-points elsewhere")
     g = src.model.grid
     domain = (g.v_min, g.v_max)
-    lo, hi = check_targets(src, targets.target_um, domain)
+    lo, hi = check_targets(src, targets, domain, target)
     result = invert_targets(src.model, targets.target_um, targets.t_s, targets.dwell_s, domain=domain,
                             run_name=Path(target).stem)
     write_setpoints(out, targets.t_s, result.voltages, result.targets, result.predicted, result.reachable)
@@ -71,6 +71,7 @@ def invert(source, target, out, model_name, force, as_json):
                               summary["us_per_step"]]]))
     if result.n_unreachable:
         k = int(min(i for i, ok in enumerate(result.reachable) if not ok))
-        click.echo(f"unreachable: {result.n_unreachable} target(s), the first at t = {targets.t_s[k]:g} s "
+        click.echo(f"unreachable: {result.n_unreachable} target(s), the first on {targets.where(k)} of {target}, "
+                   f"t = {targets.t_s[k]:g} s "
                    f"({result.targets[k]:.6g} um; closest output {result.closest[k]:.6g} um); see the reachable column",
                    err=True)

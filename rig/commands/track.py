@@ -27,10 +27,21 @@ PLAN_OPTIONS = ("source", "target", "out", "model_name", "feedback", "dwell", "s
                 "notes")
 
 
+#: Exit code of a tracking run that completed but missed far beyond its model (docs/exit-codes.md).
+EXIT_TRACKING_OFF = 4
+
+
 def _report(result: dict, as_json: bool) -> None:
     if as_json:
         print_json(result)
-        return
+    else:
+        _print(result)
+    if result["warning"] is not None and result["status"] == "complete":
+        click.echo(f"warning: {result['warning']}", err=True)
+        raise click.exceptions.Exit(EXIT_TRACKING_OFF)
+
+
+def _print(result: dict) -> None:
     r = result
     click.echo(f"{r['session']}: {r['status']}, {r['n']} of {r['n_points']} targets measured; feedback {r['feedback']}; "
                f"model {r['model']!r} of {r['source']}")
@@ -106,7 +117,7 @@ def track(ctx, source, target, out, model_name, config_path, feedback, dwell, sa
         check_window(src, window.min_V, window.max_V)
         targets = read_targets(target)
         domain = (window.min_V, window.max_V)
-        check_targets(src, targets.target_um, domain)
+        check_targets(src, targets, domain, target)
         plan = plan_track(src, targets, feedback, domain, dwell_s=dwell, saturate_s=saturate, readings=readings,
                           target_file={"name": target.name, "sha256": sha256_of(target)})
         acq = AcquisitionPlan.from_record(plan.record)

@@ -15,6 +15,19 @@ from ..output import print_json
 
 #: CPU priority (``nice``) of the watch: an observer, it yields the processor to the acquisition it follows.
 NICE = 10
+#: After this long without the awaited session appearing, say so and list the sessions that do exist (s).
+NOTHING_YET_S = 3.0
+
+
+def nothing_yet(target: Path) -> str:
+    """The line that says a session awaited for a while has not appeared, and which ones exist there."""
+    from ..watch.server import SESSION_SUFFIXES
+
+    folder = target.parent
+    there = sorted(p.name for p in folder.iterdir() if p.suffix in SESSION_SUFFIXES and not p.name.startswith("."))
+    listing = ", ".join(there[:10]) + (f" and {len(there) - 10} more" if len(there) > 10 else "") if there else "none"
+    return (f"rig watch: nothing has appeared at {target} after {NOTHING_YET_S:g} s (still waiting; a typo?); "
+            f"sessions in {folder}: {listing}")
 
 
 @click.command()
@@ -121,6 +134,16 @@ def watch(target, host, port, allow_remote, open_browser, method, levels, refit_
         raise KeyboardInterrupt
 
     signal.signal(signal.SIGTERM, stop)
+    if not target.exists():
+        import threading
+
+        def still_nothing() -> None:
+            if not target.exists():
+                click.echo(nothing_yet(target), err=True)
+
+        timer = threading.Timer(NOTHING_YET_S, still_nothing)
+        timer.daemon = True
+        timer.start()
     try:
         server.serve_forever(poll_interval=0.25)
     except KeyboardInterrupt:

@@ -28,6 +28,9 @@ from .source import ModelSource
 
 #: The excitation kind of a tracking run.
 KIND = "track"
+#: A run tracks "far beyond its model" when its RMSE exceeds this many times the model's own fit RMSE and
+#: this fraction of the targets' range (a wrong model: a flipped sign, another actuator, another unit).
+FAR_BEYOND, FAR_NRMSE = 10.0, 0.1
 
 
 @dataclass(frozen=True)
@@ -117,6 +120,9 @@ def summary(session: Session, model) -> dict:
         "target_range_um": span,
         "rig_time_s": float(session.t_s[-1]) if n_applied else 0.0,
     }
+    fitted = session.models.get(track["model"])
+    out["model_fit_rmse_um"] = fitted.metrics.get("rmse") if fitted is not None else None
+    out["warning"] = tracking_warning(out)
     period = track.get("period")
     if period:
         reps = []
@@ -126,6 +132,26 @@ def summary(session: Session, model) -> dict:
             reps.append(float(np.sqrt(np.mean(e ** 2))) if e.size else math.nan)
         out["repetitions_rmse_um"] = reps
     return out
+
+
+def tracking_warning(result: dict) -> str | None:
+    """Why a finished tracking run did not do what its model promised (None when it did): most targets
+    unreachable, or an error far beyond the model's own (``FAR_BEYOND`` x its fit RMSE and ``FAR_NRMSE`` of
+    the targets' range)."""
+    n, rmse, fit = result["n"], result["rmse_um"], result.get("model_fit_rmse_um")
+    why = []
+    if n and result["unreachable"] > n / 2:
+        why.append(f"{result['unreachable']} of {n} targets were unreachable from the memory states the run reached")
+    far = math.isfinite(rmse) and result["nrmse"] > FAR_NRMSE and (fit is None or rmse > FAR_BEYOND * fit)
+    if far:
+        model = (f", far beyond {FAR_BEYOND:g} x the model's own fit error ({fit:.3g} um)" if fit is not None
+                 else "")
+        why.append(f"the tracking error is rmse {rmse:.3g} um ({100 * result['nrmse']:.0f}% of the targets' "
+                   f"range){model}")
+    if not why:
+        return None
+    return ("; ".join(why) + ": the model does not describe this actuator (a wrong model, a flipped sign, another "
+            "device or unit?) -- check it with rig validate on a fresh run before tracking with it")
 
 
 def linear_baseline(session: Session, model, domain: tuple[float, float]) -> float:

@@ -18,6 +18,7 @@ Each failure is one line, exit code 2.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,6 +27,7 @@ import numpy as np
 from identify import IdentifyError, PreisachModel
 from sessions import ModelRecord, read_session
 from sessions.formats import FileKind, detect
+from sessions.targets import Targets
 
 from ..errors import UserError
 
@@ -69,8 +71,10 @@ def load_source(path: Path, name: str | None) -> ModelSource:
                         "JSON file holds one model)")
     model = load_model(path)
     method = str(model.metadata.get("method", "unknown")) if model.metadata else "unknown"
+    fit_rmse = json.loads(path.read_text(encoding="utf-8")).get("rmse_um")  # rig identify --json writes it
     record = ModelRecord(name="model", method=method, model=model, rows=np.zeros(0, np.int64),
-                         thermal_term=model.c_d != 0.0)
+                         thermal_term=model.c_d != 0.0,
+                         metrics={"rmse": float(fit_rmse)} if isinstance(fit_rmse, (int, float)) else {})
     return ModelSource(record, path, "json")
 
 
@@ -92,9 +96,9 @@ def check_window(source: ModelSource, lo: float, hi: float) -> None:
                         "(identify it on a grid spanning the window)")
 
 
-def check_targets(source: ModelSource, targets: np.ndarray, domain: tuple[float, float],
-                  what: str = "target") -> tuple[float, float]:
-    """Refuse targets outside the model's output range on ``domain`` (V); returns the range (um)."""
+def check_targets(source: ModelSource, targets: Targets, domain: tuple[float, float], path: Path) -> tuple[float, float]:
+    """Refuse targets (read from ``path``) outside the model's output range on ``domain`` (V), naming the
+    file line of the first; returns the range (um)."""
     from identify.inverse import output_range
 
     try:
@@ -102,9 +106,11 @@ def check_targets(source: ModelSource, targets: np.ndarray, domain: tuple[float,
     except IdentifyError as exc:
         raise UserError(f"{source.path}: {exc}") from None
     slack = RANGE_SLACK * max(hi - lo, 1e-300)
-    bad = np.flatnonzero((targets < lo - slack) | (targets > hi + slack))
+    y = targets.target_um
+    bad = np.flatnonzero((y < lo - slack) | (y > hi + slack))
     if bad.size:
         k = int(bad[0])
-        raise UserError(f"{what} {k} ({targets[k]:.6g} um) is outside the model's output range [{lo:.6g}, {hi:.6g}] um "
-                        f"on [{domain[0]:g}, {domain[1]:g}] V ({bad.size} target(s) in all): no voltage can reach it")
+        raise UserError(f"{path}: the target on {targets.where(k)} ({y[k]:.6g} um) is outside the model's output range "
+                        f"[{lo:.6g}, {hi:.6g}] um on [{domain[0]:g}, {domain[1]:g}] V ({bad.size} target(s) in all): "
+                        "no voltage can reach it")
     return lo, hi

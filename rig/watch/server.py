@@ -169,6 +169,9 @@ class WatchServer(ThreadingHTTPServer):
 
     daemon_threads = True
     allow_reuse_address = True
+    #: The listen queue: a burst of a few hundred simultaneous requests (a page reloaded in many tabs, a
+    #: scripted poll) is answered, not dropped by the kernel to be retried seconds later (the default is 5).
+    request_queue_size = 1024
 
     def __init__(self, site: Site, host: str, port: int, token: str | None) -> None:
         self.site = site
@@ -237,7 +240,8 @@ class WatchHandler(BaseHTTPRequestHandler):
     def _host_ok(self) -> bool:
         if not self.server.loopback_only:
             return True
-        host = (self.headers.get("Host") or "").strip()
+        hosts = self.headers.get_all("Host") or []
+        host = (hosts[0] if len(hosts) == 1 else "").strip()
         if host.startswith("["):
             name = host[: host.find("]") + 1]
         else:
@@ -261,6 +265,8 @@ class WatchHandler(BaseHTTPRequestHandler):
     def do_GET(self) -> None:
         url = urlsplit(self.path)
         query = parse_qs(url.query)
+        if len(self.headers.get_all("Host") or []) > 1:
+            return self._text(HTTPStatus.BAD_REQUEST, "a request names one Host (RFC 9112, section 3.2)")
         if not self._host_ok():
             return self._text(HTTPStatus.FORBIDDEN, "rig watch answers only requests addressed to this machine's "
                                                     "loopback interface (127.0.0.1, localhost)")
