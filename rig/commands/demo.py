@@ -11,6 +11,7 @@ import click
 from drivers.sim import EFFECTS, SimParams, SimVO2
 from identify import PreisachModel
 
+from ..options import AliasedOption
 from ..output import format_table, print_json
 
 
@@ -39,7 +40,8 @@ def demo_truth(levels: int) -> PreisachModel:
 @click.option("--levels", "-L", type=click.IntRange(2, 200), default=30, show_default=True)
 @click.option("--measurements", "-M", type=click.IntRange(min=1), default=300, show_default=True,
               help="How many of the identification run's measured points the methods are fitted on.")
-@click.option("--effect", type=click.Choice([*EFFECTS, "none"]), default="creep", show_default=True,
+@click.option("--with", "effect", cls=AliasedOption, aliases=("--effect",),
+              type=click.Choice([*EFFECTS, "none"]), default="creep", show_default=True,
               help="The unmodelled effect switched on in the simulated device (none: the ideal device).")
 @click.option("--strength", type=click.FloatRange(min=0), default=None, callback=_finite,
               help="The effect's strength [the calibrated demo strength: a gap about ten times the noise].")
