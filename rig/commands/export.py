@@ -16,7 +16,7 @@ from ..options import AliasedOption
 @click.command()
 @click.argument("session", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--out", "-o", "csv_out", cls=AliasedOption, aliases=("--csv",), required=True,
-              type=click.Path(dir_okay=False, path_type=Path),
+              type=click.Path(dir_okay=False, path_type=Path), metavar="FILE",
               help="CSV trace to write (t_s,v_V,deflection_um).")
 @click.option("--measured-only", is_flag=True,
               help="Write only the measured rows of a session that applied unmeasured points.")

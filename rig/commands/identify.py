@@ -90,6 +90,7 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
                    "sensor_nonlinearity, reversible[:monotone], interaction, first_point.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--out", "-o", "save", cls=AliasedOption, aliases=("--save",), type=click.Path(path_type=Path),
+              metavar="PATH",
               help="Also write the model as JSON here (several files: into this directory, <stem>.json each).")
 @click.option("--name", help="Store the model under /models/NAME (default: the method and the options given).")
 @click.option("--store/--no-store", default=True, show_default=True,

@@ -23,7 +23,7 @@ def default_out(session: Path) -> Path:
               help="Directory for the figures and report.md (default: SESSION's name + '-report', beside it).")
 @click.option("--model", "model_name", help="Stored model to show (default: the most recently stored).")
 @click.option("--check", "validation", cls=AliasedOption, aliases=("--validate",),
-              type=click.Path(dir_okay=False, path_type=Path),
+              type=click.Path(dir_okay=False, path_type=Path), metavar="RUN",
               help="Also show the model against this run (a session or CSV trace), e.g. a random-input run.")
 @click.option("--partial", is_flag=True, help="Accept partial sessions (the points they hold).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")

@@ -54,7 +54,7 @@ def _number_list(text: str | None, kind: type, option: str) -> tuple | None:
 @click.option("--workers", type=int, default=None, help="Worker processes (default: the number of cores).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--out", "-o", "plots", cls=AliasedOption, aliases=("--plots",),
-              type=click.Path(file_okay=False, path_type=Path), help="Write PNG figures into DIR.")
+              type=click.Path(file_okay=False, path_type=Path), metavar="DIR", help="Write PNG figures into DIR.")
 def study(profile, runs, measurements, levels, noise, seed, methods, sweep, sweep_measurements,
           sweep_noise, validation_points, workers, as_json, plots):
     """Reproduce the paper's simulation study and print our results beside the paper's."""

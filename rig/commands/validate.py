@@ -17,7 +17,7 @@ from ..session_input import choose_model, open_run, session_of
 @click.argument("session", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--model", "model_name", help="Stored model to use (default: the most recently stored).")
 @click.option("--check", "run", cls=AliasedOption, aliases=("--on",), required=True,
-              type=click.Path(dir_okay=False, path_type=Path),
+              type=click.Path(dir_okay=False, path_type=Path), metavar="RUN",
               help="The run to predict: a session (or CSV trace), e.g. a random-input validation run.")
 @click.option("--partial", is_flag=True, help="Accept a partial validation session (the points it holds).")
 @click.option("--curves", type=click.Choice(CURVE_CHOICES), default="all", show_default=True,
