@@ -45,7 +45,7 @@ from .session_input import open_run
 
 #: The methods the demo identifies with, in the order it prints them.
 DEMO_METHODS = ("ls", "cs", "cs_order", "cs_order_nn", "smooth_nn")
-#: The method whose model the report shows (ours; see the README's study).
+#: The method whose model the report shows (ours; see docs/results/2026-11-21-simulation-study.md).
 REPORT_METHOD = "smooth_nn"
 #: Session file names inside the demo directory.
 FIT_SESSION, CHECK_SESSION = "fit.h5", "check.h5"

@@ -29,7 +29,7 @@ WORKER_MODULES = ["rig.reidentify"]
 #: Work (measured rows x parameters, summed over the files) below which a batch is fitted in this
 #: process unless --jobs asks otherwise: about 2 s of fitting on one core, what starting a pool of
 #: workers (a fork server importing numpy, scipy and cvxpy) costs; at L = 30, M = 300 a fit is
-#: 140k and 10-50 ms, at L = 100, M = 3,284 it is 17M and 0.6-2.4 s (README, Speed and scale).
+#: 140k and 10-50 ms, at L = 100, M = 3,284 it is 17M and 0.6-2.4 s (docs/results, speed and scale).
 PARALLEL_WORK = 20_000_000
 
 
