@@ -1,18 +1,21 @@
 """Reference pages generated from the code: the ``rig.toml`` keys from the configuration schema.
 
-``config_tables()`` walks :class:`drivers.config.RigConfig` -- the dataclasses whose fields are
-declared with :func:`drivers.configschema.setting` -- and returns every table with its own
-description and every key with its type, unit, default and description, as the schema says them:
-the reference cannot drift from what ``rig.toml`` accepts.  It needs no Sphinx (a test calls it);
-:func:`setup` registers the ``rig-toml-reference`` directive that renders it.
+``config_tables()`` groups :func:`drivers.configschema.describe`'s keys -- the fields of
+:class:`drivers.config.RigConfig` declared with :func:`drivers.configschema.setting` -- by their
+table, each table with its own description: every key with its type, unit, default and
+description, as the schema says them, so the reference cannot drift from what ``rig.toml``
+accepts.  It needs no Sphinx (a test calls it); :func:`setup` registers the
+``rig-toml-reference`` directive that renders it.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import types
 import typing
 from typing import Any, NamedTuple
+
+# the schema's own reading of a field's type (an optional table is ``Table | None``)
+from drivers.configschema import _is_table, _unwrap_optional, describe
 
 
 class Key(NamedTuple):
@@ -30,26 +33,11 @@ class Table(NamedTuple):
     keys: list[Key]
 
 
-def _inner(tp: Any) -> tuple[Any, bool]:
-    """The type inside ``X | None``, and whether it was optional."""
-    if isinstance(tp, types.UnionType) or typing.get_origin(tp) is typing.Union:
-        args = [a for a in typing.get_args(tp) if a is not type(None)]
-        if len(args) == 1:
-            return args[0], True
-    return tp, False
-
-
-def _type_name(tp: Any) -> str:
-    inner, _ = _inner(tp)
-    if inner is dict or typing.get_origin(inner) is dict:
-        return "table"
-    return {float: "number", int: "integer", str: "string", bool: "boolean"}.get(inner, str(inner))
-
-
-def _default(field: dataclasses.Field, required: bool) -> str:
-    if required:
+def _default(row: dict[str, Any]) -> str:
+    """A key's default as the reference shows it, from :func:`describe`'s row."""
+    value = row["default"]
+    if row["required"]:
         return "**required**"
-    value = field.default if field.default is not dataclasses.MISSING else field.default_factory()
     if value is None:
         return "--"
     if isinstance(value, bool):
@@ -68,33 +56,37 @@ def _strip_table_name(doc: str) -> str:
     return doc.split("] ", 1)[1] if doc.startswith("[") and "] " in doc else doc
 
 
-def config_tables(cls: type | None = None, name: str = "", meaning: str = "the top level",
-                  optional: bool = False) -> list[Table]:
-    """Every table of ``rig.toml`` (``cls``: its dataclass, default :class:`RigConfig`), depth first."""
-    if cls is None:
-        from drivers.config import RigConfig
-
-        cls = RigConfig
+def _tables(cls: type, name: str, meaning: str, optional: bool) -> list[tuple[str, str, bool]]:
+    """``(name, meaning, optional)`` of the table ``cls`` and of every table nested in it, depth first,
+    read as the schema reads a field's type."""
+    out = [(name, meaning, optional)]
     hints = typing.get_type_hints(cls)
-    keys: list[Key] = []
-    nested: list[Table] = []
     for field in dataclasses.fields(cls):
-        if not field.init:  # bookkeeping such as RigConfig.source, not a key
-            continue
-        key = f"{name}.{field.name}" if name else field.name
-        inner, is_optional = _inner(hints[field.name])
-        doc = field.metadata.get("doc", "")
-        if dataclasses.is_dataclass(inner):
-            nested += config_tables(inner, key, _strip_table_name(doc), optional or is_optional)
-            continue
-        required = field.default is dataclasses.MISSING and field.default_factory is dataclasses.MISSING
-        if key == "sim.effects":
-            from drivers.sim import EFFECTS
+        inner, is_optional = _unwrap_optional(hints[field.name])
+        if field.init and _is_table(inner):
+            key = f"{name}.{field.name}" if name else field.name
+            out += _tables(inner, key, _strip_table_name(field.metadata.get("doc", "")), optional or is_optional)
+    return out
 
-            doc = f"{doc}; built in: {', '.join(f'`{e}`' for e in EFFECTS)}"
-        keys.append(Key(key, _type_name(hints[field.name]), field.metadata.get("unit", ""),
-                        _default(field, required), doc))
-    return [Table(name, meaning, optional, keys), *nested]
+
+def config_tables() -> list[Table]:
+    """Every table of ``rig.toml`` with its keys (:func:`describe`'s rows), in the schema's order."""
+    from drivers.config import RigConfig
+    from drivers.sim import EFFECTS
+
+    rows = describe(RigConfig)
+    out = []
+    for name, meaning, optional in _tables(RigConfig, "", "the top level", False):
+        keys = []
+        for row in rows:
+            if (row["key"].rsplit(".", 1)[0] if "." in row["key"] else "") != name:
+                continue
+            doc = row["doc"]
+            if row["key"] == "sim.effects":
+                doc = f"{doc}; built in: {', '.join(f'`{e}`' for e in EFFECTS)}"
+            keys.append(Key(row["key"], row["type"], row["unit"], _default(row), doc))
+        out.append(Table(name, meaning, optional, keys))
+    return out
 
 
 def setup(app):  # pragma: no cover - run by Sphinx
