@@ -30,6 +30,7 @@ smartquotes = False  # keep --force, not an en dash, in the text sphinx-click ta
 autodoc_default_options = {"members": True, "member-order": "bysource"}
 autodoc_typehints = "description"
 autodoc_class_signature = "separated"
+toc_object_entries = False  # the sidebar lists the pages, not every documented function
 
 html_theme = "alabaster"
 html_title = f"vo2rig {release}"
