@@ -16,6 +16,9 @@ import click
 from .commands import BY_NAME, load
 from .errors import RigFault, UserError, is_rig_fault, is_user_error
 
+#: What click >= 8.2 raises for a bare ``rig`` (8.1 printed the help and exited 0 by itself).
+NO_ARGS = getattr(click.exceptions, "NoArgsIsHelpError", ())
+
 
 class RigGroup(click.Group):
     """A click group that turns domain errors into one-line messages.
@@ -86,7 +89,7 @@ def main(args: list[str] | None = None) -> None:
     arguments prints the help, as ``rig --help`` does, and exits 0."""
     try:
         code = cli.main(args=args, prog_name="rig", standalone_mode=False)
-    except click.exceptions.NoArgsIsHelpError as exc:  # a request for help, not an error
+    except NO_ARGS as exc:  # a request for help, not an error
         click.echo(exc.ctx.get_help(), color=exc.ctx.color)
         sys.exit(0)
     except click.UsageError as exc:
