@@ -1,8 +1,8 @@
 """``rig.toml``: which driver, its connection, and the bench's limits and calibration.
 
 Every key is declared once, with its documentation, in the dataclasses
-below (the README's ``rig.toml`` reference lists them all; a test keeps the
-two in step).  Loading rejects unknown keys (suggesting the closest one) and
+below (the ``rig.toml`` reference, ``docs/reference/rig-toml.md``, is generated
+from them).  Loading rejects unknown keys (suggesting the closest one) and
 missing required ones, naming the key.  Example::
 
     driver = "modbus"            # sim | modbus | serial

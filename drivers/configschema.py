@@ -5,8 +5,8 @@ field declared with :func:`setting` (its documentation, unit, allowed values
 and bounds).  :func:`parse_table` turns a parsed TOML table into the
 dataclass, rejecting unknown keys (with a "did you mean") and missing
 required ones, always naming the key.  :func:`describe` lists every key for
-the documentation (the README's ``rig.toml`` reference is checked against it
-by a test).
+the documentation (the ``rig.toml`` reference, ``docs/reference/rig-toml.md``, is
+generated from these declarations).
 """
 
 from __future__ import annotations

@@ -16,6 +16,9 @@ import click
 from .commands import BY_NAME, load
 from .errors import RigFault, UserError, is_rig_fault, is_user_error
 
+#: What click >= 8.2 raises for a bare ``rig`` (8.1 printed the help and exited 0 by itself).
+NO_ARGS = getattr(click.exceptions, "NoArgsIsHelpError", ())
+
 
 class RigGroup(click.Group):
     """A click group that turns domain errors into one-line messages.
@@ -35,19 +38,24 @@ class RigGroup(click.Group):
         return None if entry is None else load(entry)
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
-        """``rig --help``'s command list, from the registry's one-line help: no command is imported."""
+        """``rig --help``'s command lists, from the registry's one-line help (no command is imported):
+        the operator's commands, then the research commands (``bench``, ``study``)."""
         names = self.list_commands(ctx)
         if not names:
             return
         limit = formatter.width - 6 - max(len(name) for name in names)  # as click.Group does
-        rows = []
+        sections: dict[str, list[tuple[str, str]]] = {"Commands": [], "Research commands": []}
         for name in names:
             if name in self.commands:
-                rows.append((name, self.commands[name].get_short_help_str(limit)))
+                row = (name, self.commands[name].get_short_help_str(limit))
             else:
-                rows.append((name, click.Command(name, help=BY_NAME[name].short_help).get_short_help_str(limit)))
-        with formatter.section("Commands"):
-            formatter.write_dl(rows)
+                row = (name, click.Command(name, help=BY_NAME[name].short_help).get_short_help_str(limit))
+            research = name in BY_NAME and BY_NAME[name].research
+            sections["Research commands" if research else "Commands"].append(row)
+        for title, rows in sections.items():
+            if rows:
+                with formatter.section(title):
+                    formatter.write_dl(rows)
 
     def invoke(self, ctx: click.Context):
         try:
@@ -77,9 +85,13 @@ def cli() -> None:
 
 def main(args: list[str] | None = None) -> None:
     """Console entry point (``args``: the arguments, default ``sys.argv[1:]``): every error is one
-    line on stderr; always ends with :class:`SystemExit` carrying the exit code."""
+    line on stderr; always ends with :class:`SystemExit` carrying the exit code.  ``rig`` with no
+    arguments prints the help, as ``rig --help`` does, and exits 0."""
     try:
         code = cli.main(args=args, prog_name="rig", standalone_mode=False)
+    except NO_ARGS as exc:  # a request for help, not an error
+        click.echo(exc.ctx.get_help(), color=exc.ctx.color)
+        sys.exit(0)
     except click.UsageError as exc:
         hint = f" (see '{exc.ctx.command_path} --help')" if exc.ctx is not None else ""
         click.echo(f"Error: {' '.join(exc.format_message().split())}{hint}", err=True)

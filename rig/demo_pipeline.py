@@ -16,7 +16,7 @@ What ``rig demo`` runs, in the order an operator and a researcher would:
 3. **diagnose** -- ``rig diagnose --fit fit.h5 --check check.h5``: where the
    model misses on the check run, which effect causes it, how far the gap
    shrinks with it (figures ``diagnosis/where.png``, ``candidates.png``);
-4. **report** -- ``rig report fit.h5 --model smooth_nn-... --validate check.h5``
+4. **report** -- ``rig report fit.h5 --model smooth_nn-... --check check.h5``
    into ``report/`` (figures and ``report.md``).
 
 Nothing here is a shortcut past the application: the same functions run
@@ -45,7 +45,7 @@ from .session_input import open_run
 
 #: The methods the demo identifies with, in the order it prints them.
 DEMO_METHODS = ("ls", "cs", "cs_order", "cs_order_nn", "smooth_nn")
-#: The method whose model the report shows (ours; see the README's study).
+#: The method whose model the report shows (ours; see docs/results/2026-11-21-simulation-study.md).
 REPORT_METHOD = "smooth_nn"
 #: Session file names inside the demo directory.
 FIT_SESSION, CHECK_SESSION = "fit.h5", "check.h5"
@@ -148,7 +148,7 @@ def acquire_step(s: DemoSettings, result: DemoResult) -> None:
     except DriverError as exc:
         for path in (result.fit_path, result.check_path):
             path.unlink(missing_ok=True)
-        setting = f"--effect {s.effect} --strength {s.effect_strength:g}" if s.effect else "the ideal device"
+        setting = f"--with {s.effect} --strength {s.effect_strength:g}" if s.effect else "the ideal device"
         raise UserError(f"{setting}: the simulated rig cannot record the demo's runs ({exc}); nothing was "
                         f"kept in {result.out}; choose a smaller --strength (the demo's own: "
                         f"{DEMO_STRENGTHS.get(s.effect, 0):g})") from None

@@ -31,7 +31,7 @@ def paper_figures(profile: str) -> dict[str, Any]:
 
 
 def study_json(summary: StudySummary, found: list[Finding], plots: list[str]) -> dict[str, Any]:
-    """The ``rig study --json`` object (schema in the README)."""
+    """The ``rig study --json`` object (schema in docs/reference/commands/study.md)."""
     s, p = summary.setup, summary.main
     sp = p.sparsity.mean(axis=0)
     return {

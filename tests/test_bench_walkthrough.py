@@ -9,7 +9,6 @@ shared machine); the commands themselves are run verbatim.
 from __future__ import annotations
 
 import re
-import shlex
 import shutil
 import signal
 import socket
@@ -17,30 +16,21 @@ import subprocess
 
 import pytest
 
-from .cli import rig_command
+from .doc_blocks import argv, sh_lines
 from .forcfiles import REPO
 
 BENCH = REPO / "docs" / "bench.md"
-BLOCK = re.compile(r"^```sh\n(.*?)^```", re.M | re.S)
 
 
 def steps() -> list[str]:
     """Every command line of the walk-through's ``sh`` blocks, in order (comments dropped)."""
-    lines = []
-    for block in BLOCK.findall(BENCH.read_text(encoding="utf-8")):
-        lines += [ln.strip() for ln in block.splitlines() if ln.strip() and not ln.strip().startswith("#")]
-    return lines
+    return sh_lines(BENCH.read_text(encoding="utf-8"))
 
 
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
-
-
-def argv(line: str) -> list[str]:
-    words = shlex.split(line, comments=True)
-    return [*rig_command(), *words[1:]] if words[0] == "rig" else words
 
 
 @pytest.mark.slow

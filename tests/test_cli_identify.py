@@ -55,7 +55,7 @@ def test_identify_then_predict_round_trip(damped_csv, tmp_path):
         p = rig("predict", m, check, "--json")
         assert p.code == 0, p.err
         res = p.json()
-        assert {"prediction_um", "rmse_um", "max_abs_um"} <= set(res)  # the contract; README lists the rest
+        assert {"prediction_um", "rmse_um", "max_abs_um"} <= set(res)  # the contract; docs/reference/commands/predict.md lists the rest
         assert len(res["prediction_um"]) == 50 and res["n_points"] == res["n_measured"] == 50
         err = np.array(res["prediction_um"]) - truth.predict(v)
         assert res["rmse_um"] == pytest.approx(np.sqrt(np.mean(err**2)), rel=1e-9)

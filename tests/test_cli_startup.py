@@ -59,6 +59,8 @@ def test_help_lists_every_command_with_its_own_first_sentence():
         first = inspect.cleandoc(command.help).split("\n\n")[0].replace("\n", " ")
         assert entry.short_help == first, entry.name
         assert command.name == entry.name
-    section = rig_here("--help").out.split("Commands:")[1]
-    listed = [line.split()[0] for line in section.splitlines() if line.startswith("  ") and line.strip()]
-    assert listed == sorted(BY_NAME)
+    operator, research = rig_here("--help").out.split("Commands:\n")[1].split("Research commands:\n")
+    listed = [[line.split()[0] for line in section.splitlines() if line.startswith("  ") and line.strip()]
+              for section in (operator, research)]
+    assert listed == [sorted(n for n, e in BY_NAME.items() if not e.research), ["bench", "study"]]
+    assert sorted(listed[0] + listed[1]) == sorted(BY_NAME)  # every command, once

@@ -3,7 +3,7 @@ page of a run that ``rig acquire`` writes against ``rig serve-sim`` -- three pro
 loopback -- and on an imported FORC session served beyond loopback.  Checked as a person would: the title
 and status, the point count growing, the figures' axis labels in the session's units, the access token.
 
-Without Chromium and its driver these tests skip, saying so; CI installs both (see the README)."""
+Without Chromium and its driver these tests skip, saying so; CI installs both (see CONTRIBUTING.md)."""
 
 from __future__ import annotations
 

@@ -5,7 +5,7 @@ of rig time) and ``rig identify --levels 10000`` ran for minutes at 4 GB,
 both without a word.  Each command now estimates its job first
 (:mod:`rig.budget.acquisition`, :mod:`rig.budget.identification`), says
 what it will cost, and refuses a job above the limits documented there
-(README, *Bounded work*) unless the user confirms with ``--yes``.
+(docs/reference/limits.md) unless the user confirms with ``--yes``.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """What a ``rig acquire`` plan costs: points, rig time at the configured dwell, file size and memory.
 
-The limits (README, *Bounded work*), beyond which the plan is refused
+The limits (docs/reference/limits.md), beyond which the plan is refused
 unless ``--yes``:
 
 * :data:`MAX_POINTS` applied points: checked from the options alone, before

@@ -2,7 +2,7 @@
 
 A fit's time and memory grow with the grid's parameters ``P = L(L+1)/2 + 2``,
 the applied points ``n`` and the measured rows ``M``, in a way that depends
-on the method and its path (README, *Speed and scale*).  :func:`estimate_fit`
+on the method and its path (docs/explanation/methods.md).  :func:`estimate_fit`
 is a rough model of each path, with constants set from measurements on the
 2-core development machine (``benchmarks/identify_cost.py`` prints the
 measured figures beside the estimates).  The time of an active-set or
@@ -12,7 +12,7 @@ and the memory to within a factor of three, which is what it is for --
 telling a two-second fit from a two-hour one, and 100 MB from 40 GB, before
 either starts.
 
-The limits (README, *Bounded work*), beyond which ``rig identify`` refuses
+The limits (docs/reference/limits.md), beyond which ``rig identify`` refuses
 unless ``--yes``: :data:`MAX_SECONDS` estimated fitting time per file and
 :data:`MAX_MEMORY_BYTES` estimated peak memory.  ``--levels 10000`` on any
 run asks for 50 million parameters: about 4 GB before the first iteration (as measured: 4 GB
@@ -86,7 +86,7 @@ class FitCost:
 def _seconds_and_bytes(method: str, p: int, n: int, m: int, square: bool) -> tuple[float, float]:
     """The method's own time (s) and working memory (bytes) beyond the per-parameter and per-point arrays.
 
-    Constants from measured fits (README *Speed and scale*, *Real measured hysteresis*, and
+    Constants from measured fits (docs/results: speed and scale, the FORC file, and
     ``benchmarks/identify_cost.py``): ``ls`` at L = 60-1000 on 467 rows, L = 100/200 on the damped
     oscillation, L = 40 on the FORC file; ``smooth_nn`` at L = 30/60 (normal equations), 100 (iterative),
     100/200 (output space); the square-design methods at L = 30, 100, 200.

@@ -17,20 +17,23 @@ import click
 
 
 class CommandEntry(NamedTuple):
-    """One subcommand: its name, the module that defines it, the click command's attribute, its one-line help."""
+    """One subcommand: its name, the module that defines it, the click command's attribute, its one-line help,
+    and whether it is a research command (listed after the operator's commands in ``rig --help``)."""
 
     name: str
     module: str
     attribute: str
     short_help: str
+    research: bool = False
 
 
-#: Every subcommand, in the order ``rig --help`` lists them (alphabetical).
+#: Every subcommand, alphabetical; ``rig --help`` lists the operator's commands, then the research commands.
 COMMANDS: tuple[CommandEntry, ...] = (
     CommandEntry("acquire", "rig.commands.acquire", "acquire",
                  "Apply an excitation on the rig and record every point in the session OUT."),
     CommandEntry("bench", "rig.commands.bench", "bench",
-                 "Time every identification method, fast path and dense reference, on simulated data."),
+                 "Time every identification method, fast path and dense reference, on simulated data.",
+                 research=True),
     CommandEntry("demo", "rig.commands.demo", "demo",
                  "Acquire, identify, diagnose and report on the simulated VO2 rig, in seconds."),
     CommandEntry("diagnose", "rig.commands.diagnose", "diagnose",
@@ -52,12 +55,13 @@ COMMANDS: tuple[CommandEntry, ...] = (
     CommandEntry("serve-sim", "rig.commands.serve_sim", "serve_sim",
                  "Run the simulated device on loopback until Ctrl-C, in real time."),
     CommandEntry("study", "rig.commands.study", "study",
-                 "Reproduce the paper's simulation study and print our results beside the paper's."),
+                 "Reproduce the paper's simulation study and print our results beside the paper's.",
+                 research=True),
     CommandEntry("track", "rig.commands.track", "track",
                  "Drive the rig so that the deflection follows the targets in --target, through the inverse of the "
                  "model in SOURCE."),
     CommandEntry("validate", "rig.commands.validate", "validate",
-                 "Apply the model stored in SESSION to the run given with --on and report its errors."),
+                 "Apply the model stored in SESSION to the run given with --check and report its errors."),
     CommandEntry("watch", "rig.commands.watch", "watch",
                  "Serve a web page that follows TARGET -- a session, or a directory of sessions to pick from -- as "
                  "it is written (by rig acquire in another process), until Ctrl-C.  A session that does not exist "

@@ -30,6 +30,7 @@ from sessions import DataFileError, read_session
 
 from ..budget.acquisition import announce, planned_points, too_many_points
 from ..budget.limits import format_duration, refuse_unless_confirmed
+from ..options import AliasedOption
 from ..output import print_json
 from ..run_driver import config_for_resume, drive
 
@@ -110,7 +111,7 @@ def _report(summary: dict, as_json: bool) -> None:
 @click.option("--transit", type=float, default=0.0, show_default=True,
               help="Wait at points that are neither measured nor reversal points (s).")
 @click.option("--readings", "-K", type=int, default=4, show_default=True, help="Readings averaged per measurement.")
-@click.option("--measure", "-M", type=int,
+@click.option("--measurements", "-M", "measure", cls=AliasedOption, aliases=("--measure",), type=int, metavar="M",
               help="Measure M points in all: every reversal point plus M-R chosen at random [all].")
 @click.option("--out", "-o", type=click.Path(dir_okay=False, path_type=Path), help="Session file to create (HDF5).")
 @click.option("--resume", "resume_path", type=click.Path(dir_okay=False, path_type=Path),

@@ -10,6 +10,7 @@ from identify.methods import DAMPED_METHODS
 from ..bench.cases import DEFAULT_CASES, Case, parse_case
 from ..bench.runner import bench as run_bench
 from ..errors import UserError
+from ..options import AliasedOption
 from ..output import format_table, print_json
 
 
@@ -32,9 +33,11 @@ def _cases(texts: tuple[str, ...]) -> list[Case]:
               help="Run the dense reference for cases with at most this many levels.")
 @click.option("--repeats", type=click.IntRange(1), default=5, show_default=True,
               help="Timed runs per measurement (the median is reported).")
-@click.option("--budget-s", type=click.FloatRange(min=0), default=60.0, show_default=True,
+@click.option("--budget", "budget_s", cls=AliasedOption, aliases=("--budget-s",),
+              type=click.FloatRange(min=0), default=60.0, show_default=True, metavar="SECONDS",
               help="Stop repeating a measurement once its runs took this long (at least one run).")
-@click.option("--timeout-s", type=click.FloatRange(min=1), default=900.0, show_default=True,
+@click.option("--timeout", "timeout_s", cls=AliasedOption, aliases=("--timeout-s",),
+              type=click.FloatRange(min=1), default=900.0, show_default=True, metavar="SECONDS",
               help="Give up on one measurement after this long.")
 @click.option("--threads", type=click.IntRange(1), default=None,
               help="BLAS threads in the measuring processes (default: the library's own).")

@@ -11,11 +11,13 @@ import click
 from drivers.sim import EFFECTS, SimParams, SimVO2
 from identify import PreisachModel
 
+from ..options import AliasedOption
 from ..output import format_table, print_json
 
 
-#: How long ``rig demo`` takes with the defaults (L = 30) on a quiet 2-core machine (s), for its progress line.
-DEMO_SECONDS = 5.0
+#: How long ``rig demo`` takes with the defaults (L = 30) on a quiet 2-core machine (s), for its progress line:
+#: 23-32 s of CPU as measured (docs/results/2026-11-27-suite-and-demo.md).
+DEMO_SECONDS = 30.0
 
 
 def _finite(ctx, param, value):
@@ -39,7 +41,8 @@ def demo_truth(levels: int) -> PreisachModel:
 @click.option("--levels", "-L", type=click.IntRange(2, 200), default=30, show_default=True)
 @click.option("--measurements", "-M", type=click.IntRange(min=1), default=300, show_default=True,
               help="How many of the identification run's measured points the methods are fitted on.")
-@click.option("--effect", type=click.Choice([*EFFECTS, "none"]), default="creep", show_default=True,
+@click.option("--with", "effect", cls=AliasedOption, aliases=("--effect",),
+              type=click.Choice([*EFFECTS, "none"]), default="creep", show_default=True,
               help="The unmodelled effect switched on in the simulated device (none: the ideal device).")
 @click.option("--strength", type=click.FloatRange(min=0), default=None, callback=_finite,
               help="The effect's strength [the calibrated demo strength: a gap about ten times the noise].")
@@ -67,7 +70,7 @@ def demo(levels, measurements, effect, strength, seed, out_dir, force, as_json):
     settings = DemoSettings(levels=levels, measurements=measurements, effect=None if effect == "none" else effect,
                             strength=strength, seed=seed)
     out = Path(tempfile.mkdtemp(prefix="rig-demo-")) if out_dir is None else out_dir
-    # on a terminal, the step it is in and about how long is left (about 5 s at L = 30 on a quiet machine)
+    # on a terminal, the step it is in and about how long is left (about 30 s at L = 30 on a quiet machine)
     with FitProgress("rig demo", DEMO_SECONDS * max(1.0, (levels / 30) ** 2)) as shown:
         result = run_demo(settings, out, progress=shown.stage, force=force)
     if as_json:

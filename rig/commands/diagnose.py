@@ -16,6 +16,7 @@ from ..diagnosis.calibration import drift_agreement
 from ..diagnosis.loading import load_runs
 from ..diagnosis.report import to_json, to_text, write_figures
 from ..errors import UserError
+from ..options import AliasedOption
 from ..output import print_json
 
 _PATH = click.Path(dir_okay=False, path_type=Path)
@@ -27,7 +28,7 @@ def _effects(text: str | None) -> tuple[str, ...] | None:
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     unknown = [n for n in names if n not in NAMES]
     if unknown or not names:
-        raise UserError(f"--effects {text!r}: unknown effect(s) {', '.join(unknown) or '(none given)'}; "
+        raise UserError(f"--with {text!r}: unknown effect(s) {', '.join(unknown) or '(none given)'}; "
                         f"choose from {', '.join(NAMES)}")
     return names
 
@@ -39,14 +40,16 @@ def _effects(text: str | None) -> tuple[str, ...] | None:
               help="Held-out check run(s) the model is judged on (more may follow as arguments).")
 @click.argument("more_checks", nargs=-1, type=_PATH)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+@click.option("--out", "-o", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               help="Write where.png (binned residuals before and after the chosen effect) and candidates.png here.")
 @click.option("--levels", "-L", type=int, help="Grid of the model [the first identification session's].")
 @click.option("--v-min", type=float, help="Lower end of the grid (V).")
 @click.option("--v-max", type=float, help="Upper end of the grid (V).")
 @click.option("--method", type=click.Choice(sorted(METHODS)), default="ls", show_default=True,
               help="Identification method of the base model.")
-@click.option("--effects", help=f"Candidate library, comma-separated [all: {', '.join(NAMES)}].")
+@click.option("--with", "effects", cls=AliasedOption, aliases=("--effects",), multiple=True,
+              metavar="EFFECT[,EFFECT...]",
+              help=f"Candidate library, comma-separated or repeated [all: {', '.join(NAMES)}].")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the block bootstrap.")
 @click.option("--partial", is_flag=True, help="Accept partial sessions (not complete): use the points they hold.")
 @click.option("--fit-curves", type=click.Choice(CURVE_CHOICES), default="all", show_default=True,
@@ -70,7 +73,7 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     checks = list(check_paths) + list(more_checks)
     loaded = load_runs(list(fit_paths), checks, levels, v_min, v_max, allow_partial=partial,
                        fit_curves=fit_curves, check_curves=check_curves, stride=stride)
-    settings = DiagnosisSettings(method=method, effects=_effects(effects), seed=seed)
+    settings = DiagnosisSettings(method=method, effects=_effects(",".join(effects) or None), seed=seed)
     result = run_diagnosis(loaded.fit, loaded.check, loaded.grid, settings,
                            monitors=[np.asarray(m.output, dtype=float) for m in loaded.unique_monitors()])
     fit_names = [str(p) + ("" if fit_curves == "all" else f":{fit_curves}") for p in fit_paths]

@@ -10,14 +10,17 @@ import click
 from sessions import DataFileError, read_session, write_trace
 from sessions.convert import check_replaceable, trace_of_session
 
+from ..options import AliasedOption
+
 
 @click.command()
 @click.argument("session", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--csv", "csv_out", required=True, type=click.Path(dir_okay=False, path_type=Path),
+@click.option("--out", "-o", "csv_out", cls=AliasedOption, aliases=("--csv",), required=True,
+              type=click.Path(dir_okay=False, path_type=Path), metavar="FILE",
               help="CSV trace to write (t_s,v_V,deflection_um).")
 @click.option("--measured-only", is_flag=True,
               help="Write only the measured rows of a session that applied unmeasured points.")
-@click.option("--force", is_flag=True, help="Replace --csv if it exists.")
+@click.option("--force", is_flag=True, help="Replace --out if it exists.")
 def export(session, csv_out, measured_only, force):
     """Write the samples of SESSION as a CSV trace."""
     trace = trace_of_session(read_session(session), measured_only)

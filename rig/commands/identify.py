@@ -17,6 +17,7 @@ from ..budget.limits import refuse_unless_confirmed
 from ..curve_selection import CURVE_CHOICES
 from ..errors import UserError
 from ..fit_progress import fit_in_process
+from ..options import AliasedOption
 from ..output import format_table, print_json, unit_token
 from ..parallel import default_workers, run_parallel, start_workers
 from ..reidentify import IdentifyOptions, check_grid, fit_job, plan_jobs, result_dict, store_model
@@ -29,7 +30,7 @@ WORKER_MODULES = ["rig.reidentify"]
 #: Work (measured rows x parameters, summed over the files) below which a batch is fitted in this
 #: process unless --jobs asks otherwise: about 2 s of fitting on one core, what starting a pool of
 #: workers (a fork server importing numpy, scipy and cvxpy) costs; at L = 30, M = 300 a fit is
-#: 140k and 10-50 ms, at L = 100, M = 3,284 it is 17M and 0.6-2.4 s (README, Speed and scale).
+#: 140k and 10-50 ms, at L = 100, M = 3,284 it is 17M and 0.6-2.4 s (docs/results, speed and scale).
 PARALLEL_WORK = 20_000_000
 
 
@@ -39,20 +40,20 @@ def batch_work(planned) -> int:
 
 
 def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
-    """Where ``--save`` writes each model: the file itself for one run, ``DIR/<stem>.json`` for several."""
+    """Where ``--out`` writes each model: the file itself for one run, ``DIR/<stem>.json`` for several."""
     if save is None:
         return [None] * len(paths)
     if len(paths) == 1:
         if save.is_dir():
-            raise UserError(f"--save {save}: is a directory; give the JSON file to write")
+            raise UserError(f"--out {save}: is a directory; give the JSON file to write")
         return [save]
     if save.exists() and not save.is_dir():
-        raise UserError(f"--save {save}: with several files --save names a directory (one <name>.json per file)")
+        raise UserError(f"--out {save}: with several files --out names a directory (one <name>.json per file)")
     targets = [save / f"{p.stem}.json" for p in paths]
     seen: dict[Path, Path] = {}
     for p, t in zip(paths, targets):
         if t in seen:
-            raise UserError(f"--save: {seen[t]} and {p} would both be saved as {t}")
+            raise UserError(f"--out: {seen[t]} and {p} would both be saved as {t}")
         seen[t] = p
     return targets
 
@@ -88,7 +89,8 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
               help="Fit these unmodelled effects jointly with the density and keep them in the model "
                    f"(ls, smooth_nn): {effect_spellings()}.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-@click.option("--save", type=click.Path(path_type=Path),
+@click.option("--out", "-o", "save", cls=AliasedOption, aliases=("--save",), type=click.Path(path_type=Path),
+              metavar="PATH",
               help="Also write the model as JSON here (several files: into this directory, <stem>.json each).")
 @click.option("--name", help="Store the model under /models/NAME (default: the method and the options given).")
 @click.option("--store/--no-store", default=True, show_default=True,

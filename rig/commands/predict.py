@@ -19,10 +19,10 @@ from ..session_input import open_run, run_of
 
 
 def load_model(path: Path) -> PreisachModel:
-    """A model from a JSON file written by ``rig identify --json`` or ``--save``."""
+    """A model from a JSON file written by ``rig identify --json`` or ``--out``."""
     if path.is_file() and detect(path) is FileKind.HDF5:
         raise UserError(f"{path}: an HDF5 file (a session), not a JSON model file; for a model stored in a "
-                        f"session use rig validate {path} --on FILE, or write one with rig identify --save")
+                        f"session use rig validate {path} --check FILE, or write one with rig identify --out")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from ..errors import UserError
+from ..options import AliasedOption
 from ..output import print_json
 from ..session_input import choose_model, open_run, session_of
 
@@ -21,7 +22,8 @@ def default_out(session: Path) -> Path:
 @click.option("--out", "-o", "out_dir", type=click.Path(path_type=Path),
               help="Directory for the figures and report.md (default: SESSION's name + '-report', beside it).")
 @click.option("--model", "model_name", help="Stored model to show (default: the most recently stored).")
-@click.option("--validate", "validation", type=click.Path(dir_okay=False, path_type=Path),
+@click.option("--check", "validation", cls=AliasedOption, aliases=("--validate",),
+              type=click.Path(dir_okay=False, path_type=Path), metavar="RUN",
               help="Also show the model against this run (a session or CSV trace), e.g. a random-input run.")
 @click.option("--partial", is_flag=True, help="Accept partial sessions (the points they hold).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
@@ -30,7 +32,7 @@ def report(session, out_dir, model_name, validation, partial, as_json):
 
     Figures: input and output against time, the hysteresis loop (measured
     and model), the identified density on the Preisach triangle, and the
-    residual against input by branch; the same for --validate's run. The
+    residual against input by branch; the same for --check's run. The
     session is only read; report files already in the directory are
     replaced, other files left alone.
     """

@@ -14,6 +14,7 @@ from identify.study import (
 )
 
 from ..errors import UserError
+from ..options import AliasedOption
 from ..output import print_json
 from ..study_report import study_json, study_text
 from ..study_runner import run_study
@@ -52,7 +53,8 @@ def _number_list(text: str | None, kind: type, option: str) -> tuple | None:
               help="Length of the random validation input (figure 6).")
 @click.option("--workers", type=int, default=None, help="Worker processes (default: the number of cores).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-@click.option("--plots", type=click.Path(file_okay=False, path_type=Path), help="Write PNG figures into DIR.")
+@click.option("--out", "-o", "plots", cls=AliasedOption, aliases=("--plots",),
+              type=click.Path(file_okay=False, path_type=Path), metavar="DIR", help="Write PNG figures into DIR.")
 def study(profile, runs, measurements, levels, noise, seed, methods, sweep, sweep_measurements,
           sweep_noise, validation_points, workers, as_json, plots):
     """Reproduce the paper's simulation study and print our results beside the paper's."""

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from ..curve_selection import CURVE_CHOICES, selected_rows
+from ..options import AliasedOption
 from ..output import format_table, print_json, unit_token
 from ..scoring import score_model
 from ..session_input import choose_model, open_run, session_of
@@ -15,7 +16,8 @@ from ..session_input import choose_model, open_run, session_of
 @click.command()
 @click.argument("session", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--model", "model_name", help="Stored model to use (default: the most recently stored).")
-@click.option("--on", "run", required=True, type=click.Path(dir_okay=False, path_type=Path),
+@click.option("--check", "run", cls=AliasedOption, aliases=("--on",), required=True,
+              type=click.Path(dir_okay=False, path_type=Path), metavar="RUN",
               help="The run to predict: a session (or CSV trace), e.g. a random-input validation run.")
 @click.option("--partial", is_flag=True, help="Accept a partial validation session (the points it holds).")
 @click.option("--curves", type=click.Choice(CURVE_CHOICES), default="all", show_default=True,
@@ -23,7 +25,7 @@ from ..session_input import choose_model, open_run, session_of
                    "still sets the memory state.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def validate(session, model_name, run, partial, curves, as_json):
-    """Apply the model stored in SESSION to the run given with --on and report its errors.
+    """Apply the model stored in SESSION to the run given with --check and report its errors.
 
     The memory starts in negative saturation; every applied point of the
     run is predicted and compared where it was measured (on the selected

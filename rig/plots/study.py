@@ -1,4 +1,4 @@
-"""Figures of ``rig study --plots DIR``: the paper's section 4, in the shared look of every ``rig`` figure.
+"""Figures of ``rig study --out DIR``: the paper's section 4, in the shared look of every ``rig`` figure.
 
 * :func:`dct_figure` -- ``|q|`` and ``|q_order|`` of one run's true outputs, with
   the 1 % line the sparsity count uses (figure 3a, 3b);
