@@ -43,7 +43,7 @@ def selftest(config_path, as_json):
     """Connect, read the sensor, apply a small safe voltage, read it back, return to 0 V.
 
     Exit code 0 only when every check passed, 3 when one failed (as for any fault of the instrument or its
-    link; docs/exit-codes.md).
+    link; docs/reference/exit-codes.md).
     """
     cfg = load_config(config_path) if config_path else None
     with terminate_as_interrupt():

@@ -27,7 +27,7 @@ PLAN_OPTIONS = ("source", "target", "out", "model_name", "feedback", "dwell", "s
                 "notes")
 
 
-#: Exit code of a tracking run that completed but missed far beyond its model (docs/exit-codes.md).
+#: Exit code of a tracking run that completed but missed far beyond its model (docs/reference/exit-codes.md).
 EXIT_TRACKING_OFF = 4
 
 
