@@ -17,7 +17,10 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from benchmarks.blind.scoring import oracle_separation, wants_oracle
+
 from .generate import Bench, Case, calibrate
+from .oracle import true_signals
 
 _BENCHES: dict[int, Bench] = {}
 
@@ -79,6 +82,7 @@ def read_verdict(js: dict[str, Any]) -> dict[str, Any]:
     for c in js.get("candidates") or []:
         cands.append({k: c.get(k) for k in ("effect", "shrink", "share_closed", "rmse_um", "z", "visible")})
     return {"status": v.get("status"), "effect": v.get("effect"), "effects": list(effects),
+            "rivals": list(v.get("rivals") or []),
             "shrink": v.get("shrink"), "share_closed": v.get("share_closed"), "reason": v.get("reason"),
             "candidates": cands}
 
@@ -113,6 +117,9 @@ def case_job(job: dict[str, Any]) -> dict[str, Any]:
             row.update(status="error", error=err)
             return row
         row.update(status="ok", verdict=read_verdict(js))
+        rival = wants_oracle(case.kind, list(case.effects), row["verdict"])
+        if rival is not None:  # is the ambiguity honest? the true signal against the rival, on these sessions
+            row["oracle_z"] = oracle_separation(fit, check, list(true_signals(bench, active)["oracle_total"]), rival)
         if keep:
             (directory / "diagnosis.json").write_text(json.dumps(js, indent=1))
         return row
