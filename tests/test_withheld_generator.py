@@ -229,13 +229,21 @@ def test_verdict_reading_and_scoring_hand_cases():
     def row(kind, effects, verdict):
         return {"status": "ok", "kind": kind, "case": {"effects": effects}, "verdict": verdict}
 
-    assert score(row("library", ["creep"], old)) == {"ok": True, "wrong": False}
-    assert score(row("library", ["creep"], new)) == {"ok": True, "wrong": True}
+    assert score(row("library", ["creep"], old)) == {"ok": True, "wrong": False, "column": "right"}
+    # a right name with a wrong second one is a wrong name, counted strictly
+    assert score(row("library", ["creep"], new)) == {"ok": False, "wrong": True, "column": "wrong"}
     assert score(row("pair", ["thermal_lag", "creep"], new))["ok"]
     assert not score(row("pair", ["thermal_lag", "creep"], old))["ok"]
     amb = read_verdict({"verdict": {"status": "ambiguous", "effect": "creep"}})
-    assert score(row("outside", ["backlash"], amb)) == {"ok": True, "wrong": False}
-    assert score(row("outside", ["backlash"], old)) == {"ok": False, "wrong": True}
+    assert score(row("outside", ["backlash"], amb)) == {"ok": True, "wrong": False, "column": "right"}
+    assert score(row("outside", ["backlash"], old)) == {"ok": False, "wrong": True, "column": "wrong"}
+    # a special case of the true mechanism is the same mechanism; an ambiguity is honest only with the oracle
+    jp = read_verdict({"verdict": {"status": "explained", "effect": "joule_power"}})
+    assert score(row("library", ["reversible"], jp))["column"] == "right"
+    two = read_verdict({"verdict": {"status": "ambiguous", "rivals": ["creep", "baseline_drift"]}})
+    assert score(row("library", ["creep"], two))["column"] == "open"
+    assert score({**row("library", ["creep"], two), "oracle_z": 0.5})["column"] == "honest"
+    assert score({**row("library", ["creep"], two), "oracle_z": 4.0})["column"] == "open"
     assert score(row("none", [], read_verdict({"verdict": {"status": "no_gap", "effect": None}})))["ok"]
 
 

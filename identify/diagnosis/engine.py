@@ -26,16 +26,17 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..effects import Context
+from ..effects import INPUT, Columns, Context
 from ..errors import IdentifyError, MethodNotApplicable
 from ..grid import Grid
 from ..runs import Run
 from .base import BaseFit, fit_base, uncertain_directions
 from .binning import Binning, bin_residuals
-from .candidates import Candidate, Columns, fitted_params, library
+from .candidates import Candidate, fitted_params, library
 from .noise import NoiseEstimate, estimate_noise, fit_residual_bound, floor_per_point
 from .resolution import Resolution
-from .scoring import WIDE, Blocks, Design, bootstrap_mse, cross_validate, make_blocks, onehot
+from .scoring import (WIDE, Blocks, Design, bootstrap_mse, coefficients_without, cross_validate, make_blocks,
+                      onehot)
 from .verdict import Evidence, Verdict
 
 #: Fraction of the scored range within which an input counts as inside the grid.
@@ -50,6 +51,9 @@ ABSORBED = 1e-6
 CONFIDENCE = 0.95
 #: How many of the base fit's noise amplifications are reported.
 MAX_REPORTED_AMPLIFICATION = 5
+#: An input effect whose held-out correction is this many noise floors (rms) is linearised again at its fit:
+#: at the base model its columns describe a small effect, and a large lag or mean field bends away from them.
+RELINEARISE = 3.0
 
 
 @dataclass(frozen=True)
@@ -276,6 +280,41 @@ def _pair_design(first: tuple, cols_first: Columns, second: tuple, cols_second: 
                   blocks)
 
 
+def _relinearised(cand: Candidate, base: BaseFit, ctx: Context, scored: _Scored, setting: dict[str, float],
+                  cols: Columns, design: Design, gap: np.ndarray, recal: np.ndarray, fit_weight: float) -> np.ndarray:
+    """Held-out residuals of an input effect linearised again at its own fit (a large effect, see
+    :data:`RELINEARISE`), two-fold so that no block is judged at a point fitted on it.
+
+    The check blocks are split in alternate halves; the effect is fitted on the identification term and
+    one half, and at that fit its output change ``d`` (one column, the big step) and its columns there
+    (the small steps, unconstrained: they go either way from the fit) are cross-validated like any
+    candidate; the predictions of the other half's blocks are kept.  ``(m,)``.
+    """
+    from ..effects.joint import context_of
+
+    blocks = scored.blocks
+    prediction = np.zeros_like(gap)
+    for half in (0, 1):
+        mine = np.flatnonzero(np.arange(blocks.count) % 2 == half)
+        coef = coefficients_without(design, gap, blocks, mine, base.residual, fit_weight)[: cols.k]
+        fitted = cand.with_fit(ctx, setting, coef, cols)
+        at = context_of(replace(base.model, effects=(fitted,)), ctx.runs, (fitted,))
+        step = fitted.columns(at, setting)
+        values = tuple(np.hstack([(p1 - p0)[:, None], v])
+                       for p1, p0, v in zip(at.predictions, ctx.predictions, step.values))
+        rough = None
+        if step.roughness is not None:
+            rough = np.zeros((step.k + 1, step.k + 1))
+            rough[1:, 1:] = step.roughness
+        both = Columns(values, ("fit", *step.labels), (False,) * (step.k + 1), (-1, *step.run_of), rough,
+                       step.smoothing)
+        e, a, _ = _effective(base, scored, both)
+        cv = cross_validate(gap, blocks, [_with_reference(e, a, both, recal)], base.residual, fit_weight)
+        rows = np.isin(blocks.index, mine)
+        prediction[rows] = cv.prediction[rows]
+    return gap - prediction
+
+
 def _assessable(cand: Candidate, cols: Columns, scored: _Scored, n_fit: int) -> str | None:
     """Why ``cand`` cannot be assessed on these check runs, or None."""
     for j, r in enumerate(cols.run_of):
@@ -443,6 +482,9 @@ def diagnose(
         designs = [_with_reference(e, a, c, recal) for (e, a, _), c in zip(parts, cols_list)]
         cv = cross_validate(gap, blocks, designs, base.residual, fit_weight)
         after = gap - cv.prediction
+        if cand.stage == INPUT and _rms(cv.prediction) >= RELINEARISE * (floor_rms or _rms(gap) / RELINEARISE):
+            after = _relinearised(cand, base, ctx, scored, grid_settings[cv.full_setting], cols_list[cv.full_setting],
+                                  designs[cv.full_setting], gap, recal, fit_weight)
         full = cols_list[cv.full_setting]
         params = fitted_params(cand, ctx, grid_settings[cv.full_setting], cv.full_coef[: full.k], full)
         results.append((cand, after, params, visible, note))

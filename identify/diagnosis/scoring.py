@@ -346,6 +346,18 @@ def cross_validate(
     return CrossValidation(prediction, picked, s_full, full / ne.scale)
 
 
+def coefficients_without(design: Design, gap: np.ndarray, blocks: Blocks, exclude: np.ndarray,
+                         fit_residual: np.ndarray | None = None, fit_weight: float = 1.0) -> np.ndarray:
+    """``design``'s coefficients ``(k,)`` (in its columns' units) fitted on the identification term and every
+    block but those in ``exclude`` (block numbers): a linearisation point for those blocks that never saw
+    them."""
+    ne = _normal(design, gap, onehot(blocks), fit_residual, fit_weight)
+    out = np.asarray(exclude, dtype=int)
+    coef = solve_coefficients(ne.gram - ne.block_gram[out].sum(axis=0), ne.rhs - ne.block_rhs[out].sum(axis=0),
+                              ne.nonneg)
+    return coef / ne.scale
+
+
 def onehot(blocks: Blocks) -> np.ndarray:
     """``(B, m)`` indicator of each block's points."""
     m = blocks.index.size
