@@ -32,11 +32,10 @@ from ..grid import Grid
 from ..runs import Run
 from .base import BaseFit, fit_base, uncertain_directions
 from .binning import Binning, bin_residuals
-from .candidates import Candidate, fitted_params, library
+from .candidates import Candidate, library
 from .noise import NoiseEstimate, estimate_noise, fit_residual_bound, floor_per_point
 from .resolution import Resolution
-from .scoring import (WIDE, Blocks, Design, bootstrap_mse, coefficients_without, cross_validate, make_blocks,
-                      onehot)
+from .scoring import Blocks, Design, bootstrap_mse, coefficients_without, cross_validate, make_blocks, onehot
 from .verdict import Evidence, Verdict
 
 #: Fraction of the scored range within which an input counts as inside the grid.
@@ -92,6 +91,11 @@ class CandidateScore:
     note: str
     share_closed: float | None
     ci_block_bootstrap: tuple[float, float] = (float("nan"), float("nan"))
+    #: The candidate fitted on all the check data (an :class:`identify.effects.Effect`, or the resolution
+    #: candidate): what a discriminating design predicts with.  Not compared, not printed.
+    fitted: Any = field(default=None, compare=False, repr=False)
+    #: The setting that fit is at.
+    setting: dict[str, float] = field(default_factory=dict, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -486,8 +490,9 @@ def diagnose(
             after = _relinearised(cand, base, ctx, scored, grid_settings[cv.full_setting], cols_list[cv.full_setting],
                                   designs[cv.full_setting], gap, recal, fit_weight)
         full = cols_list[cv.full_setting]
-        params = fitted_params(cand, ctx, grid_settings[cv.full_setting], cv.full_coef[: full.k], full)
-        results.append((cand, after, params, visible, note))
+        fitted = cand.with_fit(ctx, grid_settings[cv.full_setting], cv.full_coef[: full.k], full)
+        params = fitted.report(ctx.runs)
+        results.append((cand, after, params, visible, note, fitted, grid_settings[cv.full_setting]))
         fits[cand.name] = (parts, cols_list, cv.full_setting, cv.chosen)
 
     # a second effect: every other candidate that improves the held-out error on its own (a second must
@@ -504,11 +509,10 @@ def diagnose(
                 continue
             pb, cb, _, picked = fits[cand.name]
             designs = [_pair_design(pa[sa], ca[sa], p, c, recal) for p, c in zip(pb, cb)]
-            # beside a wide first (a fine grid's cells), the second keeps the setting its own
-            # cross-validation chose for each held-out block: a nested search over both is minutes
-            wide = ca[sa].k > WIDE
+            # the second keeps the setting its own cross-validation chose for each held-out block (without
+            # that block): a nested search over both settings cost more than all the single candidates
             pairs_after[i] = gap - cross_validate(gap, blocks, designs, base.residual, fit_weight,
-                                                  chosen=picked if wide else None).prediction
+                                                  chosen=picked).prediction
 
     sse_base = ind @ reference**2
     sse = np.array([ind @ a**2 for _, a, *_ in results]).reshape(len(results), blocks.count)
@@ -538,14 +542,14 @@ def diagnose(
     excess = evidence.excess()
     floor_sq = float(np.mean(floor**2)) if floor is not None else None
     scores = []
-    for i, (cand, after, params, visible, note) in enumerate(results):
+    for i, (cand, after, params, visible, note, fitted, setting) in enumerate(results):
         share = None
         if excess is not None and excess > 0:
             share = float(min((mse_base - mse[i]) / excess, 1.0))
         boot_ci = (float(np.quantile(shrink_boot[:, i], lo_q)), float(np.quantile(shrink_boot[:, i], hi_q)))
         scores.append(CandidateScore(cand.name, float(np.sqrt(mse[i])), float(shrink[i]),
                                      evidence.interval(i, CONFIDENCE), float(mse_base - mse[i]), float(z[i]),
-                                     params, visible, note, share, boot_ci))
+                                     params, visible, note, share, boot_ci, fitted, setting))
     order = np.argsort([-s.gain_um2 for s in scores], kind="stable")
     scores = [scores[i] for i in order]
     residual_after = {cand.name: -after for cand, after, *_ in results}

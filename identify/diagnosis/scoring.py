@@ -47,11 +47,11 @@ MIN_BLOCK_POINTS = 5
 RIDGE = 1e-6
 #: Bootstrap resamples.
 N_BOOT = 2000
-#: A design with more columns than this chooses its setting by an inner cross-validation over
-#: :data:`INNER_FOLDS` groups of the remaining blocks instead of leaving each out in turn: each inner fit
-#: costs a solve of its size, and a fine grid's hundreds of cells would take minutes (still held out).
-WIDE = 60
-INNER_FOLDS = 8
+#: The setting is chosen by an inner cross-validation over this many contiguous groups of the remaining
+#: blocks (not each block in turn: a tenth of the solves, and a fine grid's hundreds of cells would take
+#: minutes); still held out.
+INNER_FOLDS = 10
+
 
 
 @dataclass(frozen=True)
@@ -293,14 +293,12 @@ def cross_validate(
     identification points: with each design's ``fit`` columns it is the
     identification part of the joint fit, always in the training data
     (weight ``fit_weight``), never scored.  For each held-out block the
-    setting is chosen by an inner leave-one-block-out cross-validation on
-    the remaining blocks (so a penalty weight is chosen as fairly as a time
-    constant), then fitted on all remaining blocks and used to predict the
-    held-out one.  The inner choice honours the sign constraints through
-    :func:`feasible_coefficients` (nearly optimal); the outer fits solve
-    them exactly.  Designs wider than :data:`WIDE` columns leave out
-    :data:`INNER_FOLDS` contiguous groups of blocks in the inner
-    cross-validation rather than one block at a time.  ``chosen`` ``(B,)``
+    setting is chosen by an inner cross-validation on the remaining blocks
+    (so a penalty weight is chosen as fairly as a time constant), then
+    fitted on all remaining blocks and used to predict the held-out one.  The inner cross-validation leaves out :data:`INNER_FOLDS`
+    contiguous groups of the remaining blocks in turn.  The inner choice
+    honours the sign constraints through :func:`feasible_coefficients`
+    (nearly optimal); the outer fits solve them exactly.  ``chosen`` ``(B,)``
     gives the setting for each held-out block instead (chosen without
     that block elsewhere, e.g. by this candidate's own cross-validation).
     """
@@ -319,7 +317,6 @@ def cross_validate(
         coef = solve_coefficients(ne.gram - ne.block_gram, ne.rhs - ne.block_rhs, ne.nonneg)  # (B, k)
         outer_coef.append(coef)
         outer[s] = _block_sse(ne, gg, coef, others)
-    wide = max(ne.check.shape[1] for ne in normals) > WIDE
     for b in range(nb):
         best = 0
         if chosen is not None:
@@ -327,15 +324,15 @@ def cross_validate(
         elif len(normals) > 1:
             inner = np.array([0.0] * len(normals))
             rest = others[others != b]
-            groups = np.array_split(rest, min(INNER_FOLDS, rest.size)) if wide else [rest[i:i + 1] for i in range(rest.size)]
+            groups = np.array_split(rest, min(INNER_FOLDS, rest.size))
+            sizes = [grp.size for grp in groups]
             for s, ne in enumerate(normals):
                 left = ne.gram - ne.block_gram[b]
                 left_r = ne.rhs - ne.block_rhs[b]
                 g = np.stack([left - ne.block_gram[grp].sum(axis=0) for grp in groups])
                 r = np.stack([left_r - ne.block_rhs[grp].sum(axis=0) for grp in groups])
-                coef = feasible_coefficients(g, r, ne.nonneg)
-                inner[s] = sum(float(np.sum(_block_sse(ne, gg, np.broadcast_to(c, (grp.size, c.size)), grp)))
-                               for c, grp in zip(coef, groups))
+                coef = np.repeat(feasible_coefficients(g, r, ne.nonneg), sizes, axis=0)
+                inner[s] = np.sum(_block_sse(ne, gg, coef, rest))
             best = int(np.argmin(inner))
         rows = blocks.index == b
         prediction[rows] = normals[best].check[rows] @ outer_coef[best][b]
