@@ -27,7 +27,8 @@ import numpy as np
 from ..errors import IdentifyError
 from ..runs import Run
 from .base import INPUT, Columns, Context, Effect, needs_heater, needs_time
-from .bases import per_run_columns, run_splines, spline_of, time_splines
+from .bases import (DRIFT_KNOTS_S, KNOT_S, centred_first, drift_bases, per_run_columns, run_splines, spline_of,
+                    splines_at)
 
 #: Weights of the splines' roughness penalty tried in the diagnosis (relative to the data): from as
 #: strong as the data to nearly a straight line per run.  Never none: an unpenalised coefficient that
@@ -42,6 +43,12 @@ SECANT = 1e-3
 #: How the room moves the transition (a setting): an added temperature (``shift``, in heater power), or a
 #: change of the temperature rise per watt (``gain``, relative).
 FORMS = ("shift", "gain")
+
+
+def drift_settings(**extra: float | str) -> list[dict[str, float]]:
+    """The settings a drift's diagnosis tries: every roughness weight of :data:`SMOOTHING` at every knot
+    spacing of :data:`~identify.effects.bases.DRIFT_KNOTS_S`, with ``extra`` (a form)."""
+    return [{**extra, "knot_s": k, "smoothing": w} for k in DRIFT_KNOTS_S for w in SMOOTHING]
 
 
 class AmbientDrift(Effect):
@@ -68,7 +75,7 @@ class AmbientDrift(Effect):
         return needs_heater(runs) or needs_time(runs)
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"form": f, "smoothing": w} for f in FORMS for w in SMOOTHING]
+        return [s for f in FORMS for s in drift_settings(form=f)]
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
         return [{"form": f, "smoothing": FIT_SMOOTHING} for f in FORMS]
@@ -102,13 +109,12 @@ class AmbientDrift(Effect):
         return self._columns(ctx, setting, centre_first=False)
 
     def _columns(self, ctx: Context, setting: dict[str, float], centre_first: bool) -> Columns:
-        bases = [time_splines(r) for r in ctx.runs]
-        if centre_first:  # the first run's mean ambient is the density's reference: its drift has zero mean
-            first = ctx.runs[0]
-            bases[0] = bases[0] - bases[0][first.rows].mean(axis=0)
+        # the first run's mean ambient is the density's reference: its drift has zero mean
+        knot = setting.get("knot_s", KNOT_S)
+        bases = drift_bases(ctx.runs, knot, centre_first)
         form = self.form if self.fitted else setting.get("form", "shift")
         blocks = [self._secants(ctx, i, b, form) for i, b in enumerate(bases)]
-        return per_run_columns(ctx.runs, blocks, "spline", setting.get("smoothing", 0.0))
+        return per_run_columns(ctx.runs, blocks, "spline", setting.get("smoothing", 0.0), knot)
 
     def _secants(self, ctx: Context, i: int, basis: np.ndarray, form: str) -> np.ndarray:
         run = ctx.runs[i]
@@ -126,22 +132,21 @@ class AmbientDrift(Effect):
         runs = (self.params or {}).get("runs", {})
         out = []
         for r in ctx.runs:
-            d = time_splines(r).shape[1]
             entry = runs.get(r.name)
+            knots = entry.get("knots_s") if entry is not None else None
+            d = splines_at(np.asarray(knots, float) if knots is not None else None, r.t_s[:1]).shape[1] \
+                if entry is not None else drift_bases((r,), KNOT_S, False)[0].shape[1]
             out.append(np.asarray(entry["coefficients"], float) if entry is not None and len(entry["coefficients"]) == d
                        else np.zeros(d))
         return np.concatenate(out)
 
     def with_fit(self, ctx, setting, coef, cols) -> "AmbientDrift":
-        coef = np.asarray(coef, dtype=float).copy()
-        first = ctx.runs[0]
-        mine = np.asarray(cols.run_of) == 0
-        if mine.any():  # the first run's columns were centred: so is its drift (its splines add up to one)
-            c = coef[mine]
-            coef[mine] = c - time_splines(first)[first.rows].mean(axis=0) @ c
+        knot = setting.get("knot_s", KNOT_S)
+        coef = centred_first(ctx.runs, cols, coef, knot)  # the first run's columns were centred: so is its drift
         previous = (self.params or {}).get("runs")
         form = self.form if self.fitted else setting.get("form", "shift")
-        return AmbientDrift({"runs": {**(previous or {}), **run_splines(ctx.runs, cols, coef)}, "form": form})
+        return AmbientDrift({"runs": {**(previous or {}), **run_splines(ctx.runs, cols, coef, knot_s=knot)},
+                             "form": form})
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
         return {**drift_report(self.params, "V2" if self.form == "shift" else "gain", runs), "form": self.form}

@@ -1,7 +1,8 @@
 """``baseline_drift``: the sensor zero wanders over session time (laser pointing, mechanics).
 
 A smooth function of session time per run (um): a penalised cubic spline
-with knots every :data:`~identify.effects.bases.KNOT_S` seconds.  The
+with knots every :data:`~identify.effects.bases.KNOT_S` seconds (in the
+diagnosis, every 600 or 200 s: a setting).  The
 first run's drift has zero mean over its measured points (its constant is
 the bias's).  A
 per-run nuisance: a stored model knows the drift of the runs it was fitted
@@ -16,9 +17,9 @@ import numpy as np
 
 from ..errors import IdentifyError
 from ..runs import Run
-from .ambient_drift import FIT_SMOOTHING, SMOOTHING, drift_report
+from .ambient_drift import FIT_SMOOTHING, drift_report, drift_settings
 from .base import OUTPUT, Columns, Context, Effect, needs_time
-from .bases import per_run_columns, run_splines, spline_of, time_splines
+from .bases import KNOT_S, centred_first, drift_bases, per_run_columns, run_splines, spline_of
 
 
 class BaselineDrift(Effect):
@@ -36,7 +37,7 @@ class BaselineDrift(Effect):
         return needs_time(runs)
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"smoothing": w} for w in SMOOTHING]
+        return drift_settings()
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
         return [{"smoothing": FIT_SMOOTHING}]
@@ -44,24 +45,21 @@ class BaselineDrift(Effect):
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         """Each run's splines; the first run's centred on its measured points (its constant is the bias
         ``mu0``'s, which the model fits anyway)."""
-        blocks = [time_splines(r) for r in ctx.runs]
-        first = ctx.runs[0]
-        blocks[0] = blocks[0] - blocks[0][first.rows].mean(axis=0)
-        return per_run_columns(ctx.runs, blocks, "spline", setting.get("smoothing", 0.0))
+        knot = setting.get("knot_s", KNOT_S)
+        return per_run_columns(ctx.runs, drift_bases(ctx.runs, knot), "spline", setting.get("smoothing", 0.0), knot)
 
     def nuisance_columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         """On another run the drift has its own constant too (each run its own sensor zero)."""
-        return per_run_columns(ctx.runs, [time_splines(r) for r in ctx.runs], "spline", setting.get("smoothing", 0.0))
+        knot = setting.get("knot_s", KNOT_S)
+        return per_run_columns(ctx.runs, drift_bases(ctx.runs, knot, centre_first=False), "spline",
+                               setting.get("smoothing", 0.0), knot)
 
     def with_fit(self, ctx, setting, coef, cols) -> "BaselineDrift":
         previous = (self.params or {}).get("runs", {})
-        fitted = run_splines(ctx.runs, cols, coef)
-        first = ctx.runs[0]
-        if first.name in fitted:  # the columns were centred: so is the spline (its functions add up to one)
-            c = np.asarray(fitted[first.name]["coefficients"])
-            c = c - time_splines(first)[first.rows].mean(axis=0) @ c
-            fitted[first.name]["coefficients"] = c.tolist()
-        return BaselineDrift({"runs": {**previous, **fitted}})
+        knot = setting.get("knot_s", KNOT_S)
+        # the columns were centred on the first run: so is its spline (its functions add up to one)
+        coef = centred_first(ctx.runs, cols, coef, knot)
+        return BaselineDrift({"runs": {**previous, **run_splines(ctx.runs, cols, coef, knot_s=knot)}})
 
     def contribution(self, run: Run, u: np.ndarray | None = None, phase: np.ndarray | None = None,
                      start: tuple[float, float] | None = None) -> np.ndarray:

@@ -20,17 +20,21 @@ from .base import Columns
 #: Knot spacing (s) of the drifts' cubic splines in session time (a penalised spline: the roughness
 #: penalty decides how wiggly a drift may be).
 KNOT_S = 600.0
+#: The knot spacings (s) a drift's diagnosis tries (a setting, chosen by cross-validation like the roughness
+#: weight): a laser's pointing, a mount's slip or a thermostat's cycle can wander faster than ten minutes.
+DRIFT_KNOTS_S = (600.0, 200.0)
 #: Degree of the drift splines.
 DEGREE = 3
 
 
-def time_knots(run: Run) -> np.ndarray | None:
-    """The knots of :func:`time_splines` (None when the run's measured points share one time)."""
+def time_knots(run: Run, knot_s: float = KNOT_S) -> np.ndarray | None:
+    """The knots of :func:`time_splines`, about every ``knot_s`` seconds over the run's measured points
+    (None when they share one time)."""
     tm = run.t_s[run.rows]
     lo, hi = float(tm.min()), float(tm.max())
     if hi <= lo:
         return None
-    inner = np.linspace(lo, hi, int((hi - lo) // KNOT_S) + 2)
+    inner = np.linspace(lo, hi, int((hi - lo) // knot_s) + 2)
     return np.concatenate([[lo] * DEGREE, inner, [hi] * DEGREE])
 
 
@@ -45,16 +49,16 @@ def splines_at(knots: np.ndarray | None, t_s: np.ndarray) -> np.ndarray:
     return BSpline.design_matrix(np.clip(t, knots[0], knots[-1]), knots, DEGREE).toarray()
 
 
-def time_splines(run: Run) -> np.ndarray:
-    """Cubic B-splines of session time with knots every :data:`KNOT_S` over the run's measured points,
-    ``(n, d)``; they add up to one, so the basis holds a constant offset."""
-    return splines_at(time_knots(run), run.t_s)
+def time_splines(run: Run, knot_s: float = KNOT_S) -> np.ndarray:
+    """Cubic B-splines of session time with knots about every ``knot_s`` (default :data:`KNOT_S`) over the
+    run's measured points, ``(n, d)``; they add up to one, so the basis holds a constant offset."""
+    return splines_at(time_knots(run, knot_s), run.t_s)
 
 
-def greville(run: Run) -> np.ndarray | None:
+def greville(run: Run, knot_s: float = KNOT_S) -> np.ndarray | None:
     """The Greville abscissae (s) of :func:`time_splines`' coefficients: a straight line in time has its
     coefficients on a straight line over them (None for a single constant function)."""
-    knots = time_knots(run)
+    knots = time_knots(run, knot_s)
     if knots is None:
         return None
     return np.array([knots[j + 1:j + 1 + DEGREE].mean() for j in range(knots.size - DEGREE - 1)])
@@ -76,7 +80,8 @@ def second_differences(x: np.ndarray) -> np.ndarray:
     return out
 
 
-def per_run_columns(runs: tuple[Run, ...], blocks: list[np.ndarray], what: str, smoothing: float = 0.0) -> Columns:
+def per_run_columns(runs: tuple[Run, ...], blocks: list[np.ndarray], what: str, smoothing: float = 0.0,
+                    knot_s: float = KNOT_S) -> Columns:
     """Per-run nuisance columns: run ``i`` gets ``blocks[i]`` ``(n_i, d_i)`` and zeros elsewhere;
     the roughness penalty is the squared second differences of each run's coefficients -- divided
     differences over the Greville abscissae of its time splines, so a straight-line drift is free."""
@@ -93,14 +98,14 @@ def per_run_columns(runs: tuple[Run, ...], blocks: list[np.ndarray], what: str, 
     for i, (run, b) in enumerate(zip(runs, blocks)):
         d = b.shape[1]
         if d >= 3:
-            x = greville(run)
+            x = greville(run, knot_s)
             diff = second_differences(x) if x is not None and x.size == d else np.diff(np.eye(d), n=2, axis=0)
             rough[offsets[i]:offsets[i + 1], offsets[i]:offsets[i + 1]] = diff.T @ diff
     return Columns(tuple(values), tuple(labels), (False,) * k, tuple(run_of), rough, smoothing)
 
 
 def run_splines(runs: tuple[Run, ...], cols: Columns, coef: np.ndarray, previous: dict[str, Any] | None = None,
-                ) -> dict[str, Any]:
+                knot_s: float = KNOT_S) -> dict[str, Any]:
     """Each run's spline (knots and coefficients, added to ``previous``'s where it has that run) from the
     per-run coefficients ``coef`` of :func:`per_run_columns`: ``{run name: {"knots_s", "coefficients"}}``."""
     out: dict[str, Any] = {}
@@ -109,13 +114,36 @@ def run_splines(runs: tuple[Run, ...], cols: Columns, coef: np.ndarray, previous
         mine = np.asarray(coef, dtype=float)[run_of == i]
         if not mine.size:
             continue
-        knots = time_knots(run)
+        knots = time_knots(run, knot_s)
         old = (previous or {}).get(run.name)
         if old is not None and len(old["coefficients"]) == mine.size:
             mine = mine + np.asarray(old["coefficients"], dtype=float)
         out[run.name] = {"knots_s": None if knots is None else [float(x) for x in knots],
                          "coefficients": [float(x) for x in mine]}
     return out
+
+
+def drift_bases(runs: tuple[Run, ...], knot_s: float = KNOT_S, centre_first: bool = True) -> list[np.ndarray]:
+    """Each run's :func:`time_splines` ``(n_i, d_i)``; with ``centre_first`` the first run's centred on its
+    measured points (its mean is a constant the model holds anyway: the bias, the scale, the reference
+    room temperature)."""
+    bases = [time_splines(r, knot_s) for r in runs]
+    if centre_first and runs:
+        first = runs[0]
+        bases[0] = bases[0] - bases[0][first.rows].mean(axis=0)
+    return bases
+
+
+def centred_first(runs: tuple[Run, ...], cols: Columns, coef: np.ndarray, knot_s: float = KNOT_S) -> np.ndarray:
+    """``coef`` of :func:`per_run_columns` built on centred bases (:func:`drift_bases`), with the first run's
+    turned into coefficients of the plain splines (which add up to one): the same drift, mean zero."""
+    coef = np.asarray(coef, dtype=float).copy()
+    mine = np.asarray(cols.run_of) == 0
+    if mine.any() and runs:
+        first = runs[0]
+        c = coef[mine]
+        coef[mine] = c - time_splines(first, knot_s)[first.rows].mean(axis=0) @ c
+    return coef
 
 
 def spline_of(entry: dict[str, Any], t_s: np.ndarray) -> np.ndarray:

@@ -26,9 +26,9 @@ import numpy as np
 
 from ..errors import IdentifyError
 from ..runs import Run
-from .ambient_drift import FIT_SMOOTHING, SMOOTHING, drift_report
+from .ambient_drift import FIT_SMOOTHING, drift_report, drift_settings
 from .base import OUTPUT, Columns, Context, Effect, needs_time
-from .bases import per_run_columns, run_splines, spline_of, time_splines
+from .bases import KNOT_S, centred_first, drift_bases, per_run_columns, run_splines, spline_of
 
 
 class GainDrift(Effect):
@@ -48,18 +48,17 @@ class GainDrift(Effect):
         return needs_time(runs)
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"smoothing": w} for w in SMOOTHING]
+        return drift_settings()
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
         return [{"smoothing": FIT_SMOOTHING}]
 
     def _columns(self, ctx: Context, setting: dict[str, float], centre_first: bool) -> Columns:
-        bases = [time_splines(r) for r in ctx.runs]
-        if centre_first:  # the first run's mean gain is the model's scale: its drift has zero mean
-            first = ctx.runs[0]
-            bases[0] = bases[0] - bases[0][first.rows].mean(axis=0)
+        # the first run's mean gain is the model's scale: its drift has zero mean
+        knot = setting.get("knot_s", KNOT_S)
+        bases = drift_bases(ctx.runs, knot, centre_first)
         blocks = [ctx.bare_output(i)[:, None] * b for i, b in enumerate(bases)]
-        return per_run_columns(ctx.runs, blocks, "gain", setting.get("smoothing", 0.0))
+        return per_run_columns(ctx.runs, blocks, "gain", setting.get("smoothing", 0.0), knot)
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         """Each run's output times its splines; the first run's splines centred on its measured points."""
@@ -70,14 +69,10 @@ class GainDrift(Effect):
         return self._columns(ctx, setting, centre_first=False)
 
     def with_fit(self, ctx, setting, coef, cols) -> "GainDrift":
-        coef = np.asarray(coef, dtype=float).copy()
-        first = ctx.runs[0]
-        mine = np.asarray(cols.run_of) == 0
-        if mine.any():  # the first run's columns were centred: so is its gain drift (its splines add up to one)
-            c = coef[mine]
-            coef[mine] = c - time_splines(first)[first.rows].mean(axis=0) @ c
+        knot = setting.get("knot_s", KNOT_S)
+        coef = centred_first(ctx.runs, cols, coef, knot)  # the first run's columns were centred: so is its drift
         previous = (self.params or {}).get("runs", {})
-        return GainDrift({"runs": {**previous, **run_splines(ctx.runs, cols, coef)}})
+        return GainDrift({"runs": {**previous, **run_splines(ctx.runs, cols, coef, knot_s=knot)}})
 
     def gain(self, run: Run) -> np.ndarray:
         """``g(t)`` at every point of ``run`` ``(n,)`` (relative: 0.01 is one per cent); zero on a run the
