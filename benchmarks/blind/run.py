@@ -221,25 +221,11 @@ def run_case(case: dict[str, Any], level: float, keep: Path | None) -> dict[str,
     directory.mkdir(parents=True, exist_ok=True)
     try:
         fit, check = _sessions(device, noisy, directory)
-        t1 = time.perf_counter()
-        code, out, err = _rig("diagnose", "--fit", str(fit), "--check", str(check), "--json")
-        row["diagnose_s"] = time.perf_counter() - t1
-        if code != 0:
-            row.update(outcome="error", reason=err.strip().splitlines()[-1] if err.strip() else f"exit {code}")
-            return row
-        js = json.loads(out)
-        v = js["verdict"]
-        row["verdict"] = {"status": v["status"], "effects": v.get("effects") or [], "rivals": v.get("rivals") or [],
-                          "shrink": v.get("shrink"), "reason": v.get("reason")}
-        row["candidates"] = [{k: c.get(k) for k in ("effect", "shrink", "z", "share_closed")} for c in js["candidates"]]
-        honest = False
-        rival = wants_oracle(case["kind"], case["effects"], row["verdict"])
-        if rival is not None:
-            signals = [np.asarray(n["y_um"]) - np.asarray(c["y_um"]) for n, c in
-                       zip(simulate(gen, device, sched, effects, seed, case["label"], False), clean)]
-            row["oracle_z"] = z = oracle_separation(fit, check, signals, rival)
-            honest = z < ORACLE_Z
-        row["outcome"] = classify(case["kind"], case["effects"], row["verdict"], honest)
+        # what a judgement (and a re-judgement of kept cases) needs: the case, the true signal for the oracle
+        (directory / "case.json").write_text(json.dumps({**case, "level": level}, default=str))
+        np.savez(directory / "signals.npz", *[np.asarray(n["y_um"]) - np.asarray(c["y_um"]) for n, c in
+                 zip(simulate(gen, device, sched, effects, seed, case["label"], False), clean)])
+        row.update(judge(case, fit, check))
     finally:
         if keep is None:
             for p in directory.iterdir():
@@ -247,6 +233,40 @@ def run_case(case: dict[str, Any], level: float, keep: Path | None) -> dict[str,
             directory.rmdir()
     row["seconds"] = time.perf_counter() - t0
     return row
+
+
+def judge(case: dict[str, Any], fit: Path, check: Path) -> dict[str, Any]:
+    """``rig diagnose --json`` on a case's sessions (``fit.h5``, ``check.h5``), read and scored
+    (:func:`classify`), the oracle asked when the verdict is ambiguous (the true signal from
+    ``signals.npz`` beside them)."""
+    t1 = time.perf_counter()
+    code, out, err = _rig("diagnose", "--fit", str(fit), "--check", str(check), "--json")
+    row: dict[str, Any] = {"diagnose_s": time.perf_counter() - t1}
+    if code != 0:
+        return {**row, "outcome": "error", "reason": err.strip().splitlines()[-1] if err.strip() else f"exit {code}"}
+    js = json.loads(out)
+    v = js["verdict"]
+    row["verdict"] = {"status": v["status"], "effects": v.get("effects") or [], "rivals": v.get("rivals") or [],
+                      "shrink": v.get("shrink"), "reason": v.get("reason")}
+    row["candidates"] = [{k: c.get(k) for k in ("effect", "shrink", "z", "share_closed")} for c in js["candidates"]]
+    honest = False
+    rival = wants_oracle(case["kind"], case["effects"], row["verdict"])
+    if rival is not None:
+        with np.load(fit.parent / "signals.npz") as z:
+            signals = [z[k] for k in sorted(z.files, key=lambda k: int(k.split("_")[1]))]
+        row["oracle_z"] = oz = oracle_separation(fit, check, signals, rival)
+        honest = oz < ORACLE_Z
+    row["outcome"] = classify(case["kind"], case["effects"], row["verdict"], honest)
+    return row
+
+
+def _rejudge(directory: str) -> dict[str, Any]:
+    d = Path(directory)
+    case = json.loads((d / "case.json").read_text())
+    try:
+        return {**case, **judge(case, d / "fit.h5", d / "check.h5")}
+    except Exception as exc:
+        return {**case, "outcome": "error", "reason": f"{type(exc).__name__}: {exc}"}
 
 
 def _worker_init() -> None:
@@ -269,7 +289,7 @@ def tables(rows: list[dict[str, Any]]) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.blind.run", description=__doc__.split("\n")[0])
-    ap.add_argument("--generator", required=True, choices=GENERATORS)
+    ap.add_argument("--generator", choices=GENERATORS)
     ap.add_argument("--split", choices=sorted(SPLITS), default="dev")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--skip", type=int, default=0)
@@ -278,7 +298,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--keep", type=Path, help="keep every case's traces and sessions here")
     ap.add_argument("--json", type=Path, help="write every case and the tables here")
+    ap.add_argument("--rejudge", type=Path, metavar="DIR",
+                    help="diagnose again the cases kept under DIR (--keep) with today's code; no simulation")
     args = ap.parse_args(argv)
+    if args.rejudge:
+        dirs = sorted(str(p.parent) for p in args.rejudge.glob("*/case.json"))
+        with ProcessPoolExecutor(max_workers=args.workers, initializer=_worker_init) as pool:
+            rows = list(pool.map(_rejudge, dirs))
+        for row in rows:
+            v = row.get("verdict", {})
+            print(f"  {row['seed']} {row['label']:40s} {row['outcome']:8s} {v.get('status', row.get('reason', ''))!s:12s} "
+                  f"{','.join(v.get('effects') or v.get('rivals') or [])}")
+        print_four_columns(tables(rows))
+        if args.json:
+            args.json.write_text(json.dumps({"rejudge": str(args.rejudge), "rows": rows}, indent=1, default=str))
+        return 0
+    if args.generator is None:
+        ap.error("--generator is required (unless --rejudge)")
     selection = set(args.effects.split(",")) if args.effects else None
     todo = cases(args.generator, args.split, args.seeds, args.skip, selection)
     gen = generator(args.generator)
