@@ -13,6 +13,7 @@ from identify.methods import METHODS
 
 from ..curve_selection import CURVE_CHOICES
 from ..diagnosis.calibration import drift_agreement
+from ..diagnosis.discriminate import DEFAULT_POINTS, MAX_POINTS, MIN_POINTS, checked_request, discriminate as plan_run, to_line
 from ..diagnosis.loading import load_runs
 from ..diagnosis.report import to_json, to_text, write_figures
 from ..errors import UserError
@@ -59,8 +60,16 @@ def _effects(text: str | None) -> tuple[str, ...] | None:
                    "one FORC session serves as both.")
 @click.option("--stride", type=int,
               help="Runs made of curves: use every K-th measured point of each curve [about 3000 points per run].")
+@click.option("--discriminate", "plan_path", type=_PATH, metavar="PLAN.csv",
+              help="When the verdict is not clear, write the follow-up run that tells the rivals apart "
+                   "(v_V,dwell_s, for rig acquire --sequence PLAN.csv); nothing is written when it is clear.")
+@click.option("--points", type=int, metavar="N",
+              help=f"Most set-points the plan may hold [{DEFAULT_POINTS}; {MIN_POINTS} to {MAX_POINTS}].")
+@click.option("--rig-time", "rig_time_s", type=float, metavar="S",
+              help="Most rig time (s of dwell) the plan may take [the check run's].")
+@click.option("--force", is_flag=True, help="Replace an existing PLAN.csv.")
 def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_min, v_max, method, effects, seed,
-             partial, fit_curves, check_curves, stride):
+             partial, fit_curves, check_curves, stride, plan_path, points, rig_time_s, force):
     """Diagnose the sim-to-real gap of equation (22): fit on --fit, judge on --check.
 
     The model is identified on the identification run(s) only and judged on
@@ -70,6 +79,7 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     ambient_drift, joule_power, creep, sensor_nonlinearity), and how far the
     gap shrinks with it.
     """
+    asked = checked_request(plan_path, points, rig_time_s, force)
     checks = list(check_paths) + list(more_checks)
     loaded = load_runs(list(fit_paths), checks, levels, v_min, v_max, allow_partial=partial,
                        fit_curves=fit_curves, check_curves=check_curves, stride=stride)
@@ -82,12 +92,17 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     written = []
     if out_dir is not None:
         written = write_figures(result, out_dir)
+    follow_up = plan_run(result, list(loaded.check), asked, seed) if asked is not None else None
     if as_json:
         obj = to_json(result, fit_names, check_names, loaded.warnings, agreement)
         if written:
             obj["figures"] = [str(p) for p in written]
+        if follow_up is not None:
+            obj["discriminate"] = follow_up
         print_json(obj)
         return
     click.echo(to_text(result, fit_names, check_names, loaded.warnings, agreement))
+    if follow_up is not None:
+        click.echo(to_line(follow_up))
     for p in written:
         click.echo(f"wrote {p}")
