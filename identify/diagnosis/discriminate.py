@@ -22,7 +22,8 @@ surely ``B`` is rejected when ``A`` is true -- is the part of
 
     S_AB = || (I - J_B pinv(J_B)) (f_A - f_B) || / sigma
 
-and the pair's separation is ``min(S_AB, S_BA)``; a plan's, the smallest
+and the pair's separation is ``min(S_AB, S_BA)`` (``S_AB`` alone when ``B`` is
+the base model, nested in ``A``: ``A`` re-fits its size to zero); a plan's, the smallest
 over the pairs of rivals (each pair must be told apart), and over the
 parameter sets each rival is given (its fit, and fits on parts of the data:
 robust to what the data leave uncertain).
@@ -138,6 +139,11 @@ def _unexplained(diff: np.ndarray, cols: np.ndarray) -> float:
     return float(np.linalg.norm(diff - cols @ coef))
 
 
+def _nested(big: Rival, small: Rival) -> bool:
+    """Whether ``small`` is the base model alone and ``big`` is not (``small`` nested in ``big``)."""
+    return not small.models[0].effects and bool(big.models[0].effects)
+
+
 def separation(rivals: list[Rival], base: PreisachModel, run: Run, sigma: float) -> tuple[float, dict[str, float]]:
     """The plan's separation (noise levels, the smallest over pairs and parameter sets) and each pair's."""
     if sigma <= 0:
@@ -153,8 +159,10 @@ def separation(rivals: list[Rival], base: PreisachModel, run: Run, sigma: float)
         for fa in preds[i]:
             for fb in preds[j]:
                 d = fa - fb
-                s_ab = _unexplained(d, _refit_columns(b, f0, fb, run))
-                s_ba = _unexplained(d, _refit_columns(a, f0, fa, run))
+                # the base model alone is nested in any rival: only its own re-fit can reject it (the
+                # bigger model re-fits its size to zero and reproduces it exactly)
+                s_ab = _unexplained(d, _refit_columns(b, f0, fb, run)) if not _nested(b, a) else np.inf
+                s_ba = _unexplained(d, _refit_columns(a, f0, fa, run)) if not _nested(a, b) else np.inf
                 worst = min(worst, s_ab, s_ba)
         pairs[f"{a.name}|{b.name}"] = float(worst / sigma)
     return (min(pairs.values()) if pairs else 0.0), pairs
