@@ -21,6 +21,7 @@ from .memory import InitialState
 from .methods import Problem, choose_rows, make_method
 from .metrics import max_abs, normalised, rmse
 from .model import PreisachModel
+from .threads import blas_threads_for
 
 if TYPE_CHECKING:  # pragma: no cover
     from .runs import Run
@@ -154,7 +155,8 @@ def fit_run(
     from .effects.joint import fit_with_effects
 
     chosen = [e if isinstance(e, Effect) else parse_effects(e)[0] for e in effects]
-    joint = fit_with_effects(grid, [run], method, chosen, thermal_term=thermal_term, settings=settings)
+    with blas_threads_for(grid.n_cells + 2):  # the joint fit's many solves and products, on one thread when small
+        joint = fit_with_effects(grid, [run], method, chosen, thermal_term=thermal_term, settings=settings)
     return FitReport(
         method=method,
         settings=dict(joint.method_settings),

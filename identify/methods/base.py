@@ -9,6 +9,8 @@ order of :class:`~identify.operators.AugmentedOperator`); ``model_`` the
 :class:`~identify.model.PreisachModel` of its equation (22) part; ``seconds_`` wall time of the fit;
 ``info_`` solver diagnostics (status, iterations, ...).
 
+A small problem is solved with one BLAS thread (:mod:`identify.threads`).
+
 Every method has the setting ``solver``: ``"fast"`` (the default) uses the
 matrix-free operator and the structured solvers, ``"dense"`` the dense
 reference formulation (dense ``S``, cvxpy with Clarabel, scipy's NNLS) --
@@ -25,6 +27,7 @@ import numpy as np
 
 from ..errors import IdentifyError, MethodNotApplicable
 from ..model import PreisachModel
+from ..threads import blas_threads_for
 from .problem import Problem
 
 #: The values of every method's ``solver`` setting.
@@ -70,7 +73,8 @@ class Method(ABC):
                 raise MethodNotApplicable(f"{self.name} {exc}") from None
         if self.needs_order:
             problem.require_order(self.name)
-        w, info = self._solve(problem)
+        with blas_threads_for(problem.n_parameters):  # one BLAS thread for a small problem
+            w, info = self._solve(problem)
         self.seconds_ = time.perf_counter() - start
         w = np.asarray(w, dtype=float)
         if not np.all(np.isfinite(w)):

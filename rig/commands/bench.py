@@ -40,7 +40,8 @@ def _cases(texts: tuple[str, ...]) -> list[Case]:
               type=click.FloatRange(min=1), default=900.0, show_default=True, metavar="SECONDS",
               help="Give up on one measurement after this long.")
 @click.option("--threads", type=click.IntRange(1), default=None,
-              help="BLAS threads in the measuring processes (default: the library's own).")
+              help="BLAS threads in the measuring processes (default: one for a problem of at most 2,100 "
+                   "parameters, L <= 63; the library's own for a larger one).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def bench(cases, methods, dense_up_to, repeats, budget_s, timeout_s, threads, as_json):
     """Time every identification method, fast path and dense reference, on simulated data.
