@@ -27,6 +27,7 @@ USER_ERRORS: tuple[tuple[str, str], ...] = (
     ("drivers.errors", "ServeError"),
     ("rig.acquisition.errors", "AcquisitionError"),
     ("drivers.errors", "InstrumentBusy"),
+    ("rig.parallel", "SchedulerError"),
 )
 
 #: Exceptions meaning "the rig failed while being driven" (exit 3), as (module, class name): the

@@ -43,3 +43,14 @@ class AliasedOption(click.Option):
             super().add_to_parser(parser, ctx)
         finally:
             self.opts = shown
+
+
+def scheduler_option(command: Any) -> Any:
+    """``--scheduler ADDRESS``: run a command's parallel jobs on a dask.distributed cluster
+    (:mod:`rig.parallel`) instead of on local processes."""
+    return click.option(
+        "--scheduler", metavar="ADDRESS",
+        help="Run the jobs on the dask.distributed cluster whose scheduler is at ADDRESS (tcp://HOST:PORT; "
+             "needs the [cluster] extra here and on the workers) instead of on local processes; "
+             "the results are the same.",
+    )(command)

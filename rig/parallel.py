@@ -1,30 +1,48 @@
-"""Running independent jobs on a pool of processes, in order, with a progress bar on stderr.
+"""Running independent jobs in parallel, behind one interface: a :class:`concurrent.futures.Executor`.
 
-Workers are forked from a *fork server*: a clean process started for the
-purpose, which imports the modules the jobs need once (``preload``), with
-single-threaded BLAS and solver factorisations (on a shared machine,
-every worker spreading small matrix products over all cores makes them
-slower, not faster).  Forking
-this process instead would be faster to start (0.07 s against 2-3 s for
-the server's imports on the shared development machine) but is not safe:
-once this process has run a Clarabel solve, its Rust thread pool (rayon,
-used by the faer factorisations) does not survive a fork, and the forked
-worker waits forever for threads that do not exist (seen in the
-benchmark).  :func:`start_workers` starts the server early, so its imports
-overlap the caller's own work.  Elsewhere than Linux workers are spawned.
+:func:`open_executor` gives the executor; :func:`run_parallel` maps a
+function over jobs on it, with a progress bar on stderr.  Two executors
+are interchangeable behind it, chosen by a scheduler address:
 
-Results come back in the order of the jobs, so they do not depend on the
-number of workers or on which finishes first.  An error in a job, or
-Ctrl-C, terminates the workers at once.
+* **the local pool** (no address): the standard library's
+  :class:`~concurrent.futures.ProcessPoolExecutor`, its processes forked
+  from a *fork server* -- a clean process started for the purpose, which
+  imports the modules the jobs need once (``preload``) -- with
+  single-threaded BLAS and solver factorisations (:data:`WORKER_ENV`: on a
+  shared machine, every worker spreading small matrix products over all
+  cores makes them slower, not faster).  Forking this process instead
+  would be faster to start (0.07 s against 2-3 s for the server's imports
+  on the shared development machine) but is not safe: once this process
+  has run a Clarabel solve, its Rust thread pool (rayon, used by the faer
+  factorisations) does not survive a fork, and the forked worker waits
+  forever for threads that do not exist.  :func:`start_workers` starts the
+  server early, so its imports overlap the caller's own work.  Elsewhere
+  than Linux workers are spawned.
+* **a dask.distributed cluster** (``scheduler="tcp://host:port"``, the
+  ``[cluster]`` extra): the executor of a :class:`distributed.Client`
+  connected to that scheduler.  The jobs run on whatever workers the
+  cluster has (``docs/how-to/scale-out.md`` says how to start them); a
+  worker that is lost is replaced and its jobs run again by dask itself.
+  Each job first sets :data:`WORKER_ENV` in its worker process (dask's
+  nanny already starts workers with single-threaded BLAS), so a job sees
+  the set-up of the local pool.
+
+Jobs are module-level functions of importable modules applied to picklable
+arguments, so the same call runs on either.  Results come back in the
+order of the jobs, so they depend neither on the number of workers nor on
+the executor nor on which job finishes first.  An error in a job, or
+Ctrl-C, stops the rest at once: the local pool's processes are
+terminated, the cluster's pending jobs cancelled.
 """
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import multiprocessing
-import multiprocessing.pool
 import os
-from typing import Callable, Iterator, Sequence, TypeVar
+from collections.abc import Callable, Iterator, Sequence
+from typing import TypeVar
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -33,6 +51,13 @@ R = TypeVar("R")
 #: Clarabel's factorisations (faer on a rayon pool, which otherwise takes every core).
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
               "RAYON_NUM_THREADS": "1"}
+
+#: How long to wait for a dask scheduler to answer before saying it cannot be reached (s).
+CONNECT_TIMEOUT_S = 10.0
+
+
+class SchedulerError(Exception):
+    """A ``--scheduler`` that cannot be used: dask.distributed is not installed, or nothing answers there."""
 
 
 def available_cores() -> int:
@@ -88,6 +113,94 @@ def start_workers(preload: Sequence[str] = ()) -> None:
             forkserver.ensure_running()
 
 
+@contextlib.contextmanager
+def open_executor(workers: int, scheduler: str | None = None, *,
+                  preload: Sequence[str] = ()) -> Iterator[concurrent.futures.Executor]:
+    """A :class:`concurrent.futures.Executor`: the cluster at ``scheduler``, else a pool of ``workers``
+    local processes (forked from the fork server, which imports ``preload``).
+
+    An error or an interrupt (Ctrl-C) in the block stops the jobs at once;
+    otherwise the block's jobs are waited for.  :class:`SchedulerError` if
+    the scheduler cannot be used.
+    """
+    if scheduler is not None:
+        with _cluster_executor(scheduler) as executor:
+            yield executor
+        return
+    with worker_environment():
+        pool = concurrent.futures.ProcessPoolExecutor(workers, mp_context=worker_context(preload))
+    try:
+        yield pool
+    except BaseException:
+        _terminate(pool)
+        raise
+    else:
+        pool.shutdown(wait=True)
+
+
+def _terminate(pool: concurrent.futures.ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the running processes now (the standard library's pool only
+    waits for them: ``terminate_workers`` is Python 3.14's)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(5)
+
+
+@contextlib.contextmanager
+def _connect(scheduler: str) -> Iterator["distributed.Client"]:  # noqa: F821
+    """A dask.distributed client of the scheduler at ``scheduler``, closed after the block."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise SchedulerError(f"--scheduler {scheduler}: needs dask.distributed; "
+                             "install it with pip install 'vo2rig[cluster]'") from None
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        parse_host_port(parse_address(scheduler)[1])
+    except ValueError as exc:
+        raise SchedulerError(f"--scheduler {scheduler}: not a scheduler address ({exc}); "
+                             "give tcp://HOST:PORT") from None
+    try:
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise SchedulerError(f"--scheduler {scheduler}: cannot reach a dask scheduler there "
+                             f"({exc or type(exc).__name__})") from None
+    try:
+        yield client
+    finally:
+        client.close()
+
+
+@contextlib.contextmanager
+def _cluster_executor(scheduler: str) -> Iterator[concurrent.futures.Executor]:
+    with _connect(scheduler) as client:
+        executor = client.get_executor(pure=False)  # every job runs, even two with equal arguments
+        try:
+            yield executor
+        except BaseException:
+            executor.shutdown(wait=False)  # cancels the jobs not finished
+            raise
+
+
+def cluster_workers(scheduler: str) -> int:
+    """How many jobs the cluster at ``scheduler`` runs at once (its workers' threads, summed)."""
+    with _connect(scheduler) as client:
+        return max(1, sum(client.nthreads().values()))
+
+
+def _in_worker(function: Callable[[T], R], job: T) -> R:
+    """``function(job)`` in a cluster's worker process, with the local pool's :data:`WORKER_ENV`
+    (effective for what starts after it: Clarabel's thread pool, on its first solve)."""
+    for k, v in WORKER_ENV.items():
+        os.environ.setdefault(k, v)
+    return function(job)
+
+
 def run_parallel(
     function: Callable[[T], R],
     jobs: Sequence[T],
@@ -97,51 +210,38 @@ def run_parallel(
     unit: str = "job",
     preload: Sequence[str] = (),
     progress: bool = True,
+    scheduler: str | None = None,
+    size: Callable[[T], int] = lambda job: 1,
 ) -> list[R]:
-    """``[function(job) for job in jobs]``, on ``workers`` processes when more than one.
+    """``[function(job) for job in jobs]``, on ``workers`` local processes when more than one, or on the
+    dask cluster at ``scheduler`` when given.
 
     ``function`` must be a module-level function of an importable module
-    (list it in ``preload`` so that the fork server imports it once), and
-    jobs and results picklable.  With one worker (or one job) everything
-    runs in this process.  The tqdm bar goes to stderr and only to a
-    terminal (``progress=False`` silences it).
+    (list it in ``preload`` so that the fork server imports it once; a
+    cluster's workers import it themselves, so it must be installed there
+    too), and jobs and results picklable.  Without a scheduler, with one
+    worker (or one job) everything runs in this process.  The tqdm bar goes
+    to stderr and only to a terminal (``progress=False`` silences it); it
+    counts ``size(job)`` units a job (one by default).
     """
     from tqdm import tqdm  # here: a command that never runs a batch need not import it at start-up
 
-    bar = tqdm(total=len(jobs), desc=desc, unit=unit, dynamic_ncols=True, disable=None if progress else True)
+    bar = tqdm(total=sum(size(job) for job in jobs), desc=desc, unit=unit, dynamic_ncols=True,
+               disable=None if progress else True)
     with bar:
-        if workers <= 1 or len(jobs) <= 1:
+        if scheduler is None and (workers <= 1 or len(jobs) <= 1):
             results = []
             for job in jobs:
                 results.append(function(job))
-                bar.update()
+                bar.update(size(job))
             return results
-        results = []
-        with worker_pool(worker_context(preload), workers) as pool:
-            for result in pool.imap(function, jobs):
-                results.append(result)
-                bar.update()
-        return results
-
-
-@contextlib.contextmanager
-def worker_pool(context: multiprocessing.context.BaseContext, workers: int,
-                initializer: Callable[..., None] | None = None, initargs: tuple = ()
-                ) -> Iterator[multiprocessing.pool.Pool]:
-    """A pool of ``workers`` processes of ``context``, started in :func:`worker_environment`;
-    each worker runs ``initializer(*initargs)`` first, when given.
-
-    An error or an interrupt (Ctrl-C) in the block terminates the workers at
-    once; otherwise they are closed; either way they are joined.
-    """
-    with worker_environment():
-        pool = context.Pool(workers, initializer, initargs)
-    try:
-        yield pool
-    except BaseException:
-        pool.terminate()
-        raise
-    else:
-        pool.close()
-    finally:
-        pool.join()
+        with open_executor(workers, scheduler, preload=preload) as executor:
+            if scheduler is None:
+                futures = [executor.submit(function, job) for job in jobs]
+            else:
+                futures = [executor.submit(_in_worker, function, job) for job in jobs]
+            job_of = {f: job for f, job in zip(futures, jobs)}
+            for done in concurrent.futures.as_completed(futures):
+                done.result()  # the first error stops the rest
+                bar.update(size(job_of[done]))
+            return [f.result() for f in futures]

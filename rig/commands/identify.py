@@ -17,9 +17,9 @@ from ..budget.limits import refuse_unless_confirmed
 from ..curve_selection import CURVE_CHOICES
 from ..errors import UserError
 from ..fit_progress import fit_in_process
-from ..options import AliasedOption
+from ..options import AliasedOption, scheduler_option
 from ..output import format_table, print_json, unit_token
-from ..parallel import default_workers, run_parallel, start_workers
+from ..parallel import cluster_workers, default_workers, run_parallel, start_workers
 from ..reidentify import IdentifyOptions, check_grid, fit_job, plan_jobs, result_dict, store_model
 
 
@@ -100,11 +100,12 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
               help="Fit partial sessions (running, aborted, failed) too; such a model is stored only with --name.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1),
               help="Processes for several files (default: one per core, at most one per file; one when the fits are too small to repay starting workers).")
+@scheduler_option
 @click.option("--yes", is_flag=True,
               help="Fit even when the estimate is over the documented limits (30 min or 4 GB per file), or the grid "
                    "has far more cells (over 20 per point) than the measured points can identify.")
 def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, with_effects,
-             as_json, save, name, store, force, partial, jobs, yes):
+             as_json, save, name, store, force, partial, jobs, scheduler, yes):
     """Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um).
 
     From a session, the fit uses the measured points; every applied point
@@ -116,6 +117,8 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     """
     if name is not None and not store:
         raise UserError("--name stores the model; it cannot go with --no-store")
+    if jobs is not None and scheduler is not None:
+        raise UserError("--jobs sets the local processes; with --scheduler the cluster's workers fit the files")
     paths = list(files)
     names = [e.strip() for spec in with_effects for e in spec.split(",")]
     if "" in names:
@@ -130,11 +133,14 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
                               partial, solver=solver, curves=curves, effects=effects)
     targets = save_targets(save, paths)
     start = time.perf_counter()
-    workers = default_workers(len(paths), jobs)
+    if scheduler is not None:
+        workers = cluster_workers(scheduler)  # and a scheduler that does not answer is said before any file is read
+    else:
+        workers = default_workers(len(paths), jobs)
     if workers > 1 and jobs is not None:
         start_workers(WORKER_MODULES)  # their imports overlap the reading and checking below
     planned = plan_jobs(paths, options)
-    if jobs is None and workers > 1 and batch_work(planned) < PARALLEL_WORK:
+    if scheduler is None and jobs is None and workers > 1 and batch_work(planned) < PARALLEL_WORK:
         workers = 1  # a pool costs about a second to start: more than these fits take one after another
     costs = [job_cost(job) for job in planned]  # stated before a long fit, refused above the limits
     for job, cost in zip(planned, costs):
@@ -146,10 +152,11 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
             click.echo(f"warning: {job.path} is partial ({job.partial})", err=True)
         if cost.seconds > PROGRESS_AFTER_S:
             click.echo(f"{job.path}: {cost.describe()}", err=True)
-    if workers == 1:
+    if workers == 1 and scheduler is None:
         reports = fit_in_process(fit_job, planned, costs, [f"rig identify: {job.path}" for job in planned])
     else:
-        reports = run_parallel(fit_job, planned, workers, desc="identify", unit="file", preload=WORKER_MODULES)
+        reports = run_parallel(fit_job, planned, workers, desc="identify", unit="file", preload=WORKER_MODULES,
+                               scheduler=scheduler)
     for job, report in zip(planned, reports):
         if job.store_as is not None:
             store_model(job, report, force)
@@ -169,7 +176,7 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     if len(planned) == 1:
         _print_one(planned[0], reports[0])
     else:
-        _print_batch(planned, reports, workers, seconds)
+        _print_batch(planned, reports, workers, seconds, scheduler)
 
 
 def _print_one(job, report) -> None:
@@ -187,7 +194,7 @@ def _print_one(job, report) -> None:
         click.echo(f"stored as /models/{job.store_as} in {job.path}")
 
 
-def _print_batch(planned, reports, workers, seconds) -> None:
+def _print_batch(planned, reports, workers, seconds, scheduler=None) -> None:
     units = {j.output_unit for j in planned}
     same = len(units) == 1
     rmse_col = f"rmse_{unit_token(units.pop())}" if same else "rmse"
@@ -202,4 +209,7 @@ def _print_batch(planned, reports, workers, seconds) -> None:
             row.insert(6, job.output_unit)
         rows.append(row)
     click.echo(format_table(headers, rows))
-    click.echo(f"{len(planned)} files in {seconds:.3g} s on {workers} process{'es' if workers > 1 else ''}")
+    where = f"{workers} process{'es' if workers > 1 else ''}"
+    if scheduler is not None:
+        where = f"the cluster at {scheduler} ({workers} worker thread{'s' if workers > 1 else ''})"
+    click.echo(f"{len(planned)} files in {seconds:.3g} s on {where}")

@@ -14,7 +14,7 @@ from identify.study import (
 )
 
 from ..errors import UserError
-from ..options import AliasedOption
+from ..options import AliasedOption, scheduler_option
 from ..output import print_json
 from ..study_report import study_json, study_text
 from ..study_runner import run_study
@@ -52,12 +52,15 @@ def _number_list(text: str | None, kind: type, option: str) -> tuple | None:
 @click.option("--validation-points", type=int, default=500, show_default=True,
               help="Length of the random validation input (figure 6).")
 @click.option("--workers", type=int, default=None, help="Worker processes (default: the number of cores).")
+@scheduler_option
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--out", "-o", "plots", cls=AliasedOption, aliases=("--plots",),
               type=click.Path(file_okay=False, path_type=Path), metavar="DIR", help="Write PNG figures into DIR.")
 def study(profile, runs, measurements, levels, noise, seed, methods, sweep, sweep_measurements,
-          sweep_noise, validation_points, workers, as_json, plots):
+          sweep_noise, validation_points, workers, scheduler, as_json, plots):
     """Reproduce the paper's simulation study and print our results beside the paper's."""
+    if workers is not None and scheduler is not None:
+        raise UserError("--workers sets the local processes; with --scheduler the cluster's workers run the study")
     if workers is None:
         workers = os.cpu_count() or 1
     if workers < 1:
@@ -79,7 +82,7 @@ def study(profile, runs, measurements, levels, noise, seed, methods, sweep, swee
             plots.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise UserError(f"cannot write the figures to {plots}: {exc.strerror or exc}") from None
-    summary = summarise(setup, run_study(setup, workers))
+    summary = summarise(setup, run_study(setup, workers, scheduler=scheduler))
     found = findings(summary)
     written: list[str] = []
     if plots is not None:
