@@ -1,0 +1,106 @@
+"""How long the diagnosis takes, cold (a fresh ``rig`` process) and warm (in this process, imports done).
+
+    python benchmarks/diagnose_speed.py [--repeats 3] [--skip-forc] [--json]
+
+Cases (the figures the evidence-bound diagnosis and the discriminating run are held to):
+
+* ``diagnose L=30 + 360``: ``rig diagnose`` on an L = 30 damped oscillation
+  (467 points, 20 s dwells) and a 360-point check run recorded on the
+  simulated bench with a creep on (``rig.diagnosis.simulate``); target 10 s;
+* ``discriminate``: the same with ``--with creep,baseline_drift
+  --discriminate`` (two rivals, the plan designed on top of the diagnosis);
+  the design's own wall time is read from the JSON (``design_s``); target
+  20 s for the design;
+* ``diagnose FORC``: the shared FORC file (``../shared/data/forc/``), even
+  curves fitted and odd held out at L = 30 (about 30,000 points); target 30 s;
+* ``identify FORC --with interaction``: ``rig identify --levels 30 --curves
+  even --with interaction`` on it (about 15,000 points); target 20 s.
+
+Each cold case runs ``--repeats`` times in a fresh process (median wall and
+CPU time, the load average printed); warm cases call the same entry point
+in this process after a first run.  Cold figures include the interpreter's
+start and the imports (about a second, see ``benchmarks/cold_start.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from cold_start import rig_executable, run_once  # noqa: E402
+
+FORC = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "forc" / "MD00-2361.forc"
+
+
+def _warm(argv: list[str], repeats: int) -> float:
+    from rig.cli import main
+
+    times = []
+    for _ in range(repeats + 1):
+        out = io.StringIO()
+        start = time.perf_counter()
+        with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
+            main(argv)
+        times.append(time.perf_counter() - start)
+    return statistics.median(times[1:])
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--skip-forc", action="store_true")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    from rig.diagnosis.simulate import SimulatedBench, simulate
+
+    work = Path(tempfile.mkdtemp(prefix="diagnose-speed-"))
+    fit, check = simulate(SimulatedBench("creep", 0.1, seed=3, levels=30, check_points=360), work)
+    cases = {
+        "diagnose L=30 + 360": (["diagnose", "--fit", str(fit), "--check", str(check), "--json"], 10.0),
+        "discriminate": (["diagnose", "--fit", str(fit), "--check", str(check), "--with", "creep,baseline_drift",
+                          "--json", "--discriminate", str(work / "plan.csv"), "--force"], None),
+    }
+    if not args.skip_forc and FORC.exists():
+        md = work / "md.h5"
+        run_once(rig_executable() + ["import", str(FORC), "--format", "micromag", "--out", str(md)], work)
+        cases["diagnose FORC L=30"] = (["diagnose", "--fit", str(md), "--check", str(md), "--fit-curves", "even",
+                                        "--check-curves", "odd", "--levels", "30", "--json"], 30.0)
+        cases["identify FORC --with interaction"] = (["identify", str(md), "--levels", "30", "--curves", "even",
+                                                      "--with", "interaction", "--no-store", "--json"], 20.0)
+    print(f"load average before: {os.getloadavg()[0]:.2f}", flush=True)
+    rows = {}
+    for name, (cmd, target) in cases.items():
+        cold = [run_once(rig_executable() + cmd, work) for _ in range(args.repeats)]
+        wall = statistics.median(c[0] for c in cold)
+        cpu = statistics.median(c[1] for c in cold)
+        warm = _warm(cmd, max(1, args.repeats - 1))
+        rows[name] = {"cold_wall_s": wall, "cold_cpu_s": cpu, "warm_s": warm, "target_s": target}
+        print(f"{name:36s} cold {wall:7.2f} s (cpu {cpu:6.2f} s)   warm "
+              f"{'-' if warm is None else f'{warm:7.2f} s'}   target {'-' if target is None else f'{target:g} s'}",
+              flush=True)
+    out = io.StringIO()
+    from rig.cli import main as rig_main
+
+    with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
+        rig_main(cases["discriminate"][0])
+    disc = json.loads(out.getvalue())["discriminate"]
+    rows["design"] = {"design_s": disc.get("design_s"), "points": disc.get("points"), "target_s": 20.0}
+    print(f"{'design (in the warm run)':36s} {disc.get('design_s')} s, {disc.get('points')} points, "
+          f"separation {disc.get('predicted_separation')}   target 20 s")
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
