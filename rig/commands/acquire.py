@@ -60,7 +60,8 @@ def _dwell_choices(text: str | None) -> tuple[float, ...] | None:
     return values
 
 
-def _report(summary: dict, as_json: bool) -> None:
+def print_summary(summary: dict, as_json: bool) -> None:
+    """What a run did: `summary` (from :func:`~rig.acquisition.summarise`) as JSON, or in a few lines."""
     if as_json:
         print_json(summary)
         return
@@ -148,7 +149,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
             return resume_acquisition(rig, resume_path, hooks=hooks)
 
         drive(cfg, target, total, start, progress, run,
-              lambda outcome: _report(summarise(read_session(target), outcome), as_json), "rig acquire")
+              lambda outcome: print_summary(summarise(read_session(target), outcome), as_json), "rig acquire")
         return
     if out is None:
         raise AcquisitionError("give --out S.h5 for a new session, or --resume S.h5 to continue one")
@@ -156,7 +157,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
                 thermal_term=thermal_term, points=points, seed=seed, dwell=dwell, dwells=dwells, settle=settle,
                 poll=poll, transit=transit, readings=readings, measure=measure, operator=operator, notes=notes,
                 progress=progress, yes=yes,
-                report=lambda outcome: _report(summarise(read_session(out), outcome), as_json))
+                report=lambda outcome: print_summary(summarise(read_session(out), outcome), as_json))
 
 
 def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped", levels: int | None = None,
