@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import click
@@ -12,6 +13,7 @@ from drivers.config import default_config, load_config
 from rig.acquisition import (
     AcquisitionError,
     AcquisitionPlan,
+    RunOutcome,
     DwellSettings,
     FixedDwell,
     RateBelow,
@@ -58,7 +60,8 @@ def _dwell_choices(text: str | None) -> tuple[float, ...] | None:
     return values
 
 
-def _report(summary: dict, as_json: bool) -> None:
+def print_summary(summary: dict, as_json: bool) -> None:
+    """What a run did: `summary` (from :func:`~rig.acquisition.summarise`) as JSON, or in a few lines."""
     if as_json:
         print_json(summary)
         return
@@ -141,33 +144,53 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         session = resumable(resume_path)
         cfg = config_for_resume(config_path, session)
         target, total, start = resume_path, session.excitation.n_points, session.n_samples
-    else:
-        if out is None:
-            raise AcquisitionError("give --out S.h5 for a new session, or --resume S.h5 to continue one")
-        if out.exists() or out.is_symlink():
-            raise DataFileError(f"{out}: already exists; a session is never overwritten")
-        cfg = load_config(config_path) if config_path else default_config()
-        rules = setpoint_rules(cfg)
-        window = rules.window
-        refuse_unless_confirmed("rig acquire", too_many_points(planned_points(  # before building it
-            sequence, levels, points, thermal_term, DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS)), yes)
-        schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points, seed=seed,
-                                   thermal_term=thermal_term, dwell=dwell, choices=_dwell_choices(dwells))
-        settings = _settings(dwell, settle, poll, transit, readings, schedule)
-        record = make_record(
-            sequence_record(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points,
-                            seed=seed, thermal_term=thermal_term),
-            settings, measure, seed,
-        )
-        plan = AcquisitionPlan.from_record(record)
-        plan.check_window(window, rules.check)  # before the rig is touched
-        announce(plan, dwell, transit, settings.schedule, settle is not None, cfg.clock_kind == "virtual", yes)
-        target, total, start = out, record.n_points, 0
+
+        def run(rig, hooks):
+            return resume_acquisition(rig, resume_path, hooks=hooks)
+
+        drive(cfg, target, total, start, progress, run,
+              lambda outcome: print_summary(summarise(read_session(target), outcome), as_json), "rig acquire")
+        return
+    if out is None:
+        raise AcquisitionError("give --out S.h5 for a new session, or --resume S.h5 to continue one")
+    new_session(config_path, out, sequence=sequence, levels=levels, v_min=v_min, v_max=v_max,
+                thermal_term=thermal_term, points=points, seed=seed, dwell=dwell, dwells=dwells, settle=settle,
+                poll=poll, transit=transit, readings=readings, measure=measure, operator=operator, notes=notes,
+                progress=progress, yes=yes,
+                report=lambda outcome: print_summary(summarise(read_session(out), outcome), as_json))
+
+
+def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped", levels: int | None = None,
+                v_min: float | None = None, v_max: float | None = None, thermal_term: bool = True,
+                points: int | None = None, seed: int = 0, dwell: float = 20.0, dwells: str | None = None,
+                settle: float | None = None, poll: float = 0.5, transit: float = 0.0, readings: int = 4,
+                measure: int | None = None, operator: str = "", notes: str = "", progress: bool | None = None,
+                yes: bool = False, report: Callable[[RunOutcome], None] | None = None) -> RunOutcome:
+    """``rig acquire --config CONFIG_PATH --out OUT ...`` (a new run; the keywords are its options, with
+    its defaults): build and check the plan, state its cost on stderr, open the rig, run, and end as
+    :func:`~rig.run_driver.drive` does (heater to 0 V; aborted: exit 130; a fault: exit 3).
+    ``report(outcome)`` prints the summary (default: nothing).  Other commands that acquire a run
+    (``rig diagnose --discriminate-on``) call this, so their runs are acquisitions like any other."""
+    if out.exists() or out.is_symlink():
+        raise DataFileError(f"{out}: already exists; a session is never overwritten")
+    cfg = load_config(config_path) if config_path else default_config()
+    rules = setpoint_rules(cfg)
+    window = rules.window
+    refuse_unless_confirmed("rig acquire", too_many_points(planned_points(  # before building it
+        sequence, levels, points, thermal_term, DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS)), yes)
+    schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points, seed=seed,
+                               thermal_term=thermal_term, dwell=dwell, choices=_dwell_choices(dwells))
+    settings = _settings(dwell, settle, poll, transit, readings, schedule)
+    record = make_record(
+        sequence_record(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points,
+                        seed=seed, thermal_term=thermal_term),
+        settings, measure, seed,
+    )
+    plan = AcquisitionPlan.from_record(record)
+    plan.check_window(window, rules.check)  # before the rig is touched
+    announce(plan, dwell, transit, settings.schedule, settle is not None, cfg.clock_kind == "virtual", yes)
 
     def run(rig, hooks):
-        if resume_path is not None:
-            return resume_acquisition(rig, resume_path, hooks=hooks)
         return run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes, hooks=hooks)
 
-    drive(cfg, target, total, start, progress, run,
-          lambda outcome: _report(summarise(read_session(target), outcome), as_json), "rig acquire")
+    return drive(cfg, out, record.n_points, 0, progress, run, report or (lambda outcome: None), "rig acquire")

@@ -13,7 +13,8 @@ from identify.methods import METHODS
 
 from ..curve_selection import CURVE_CHOICES
 from ..diagnosis.calibration import drift_agreement
-from ..diagnosis.discriminate import DEFAULT_POINTS, MAX_POINTS, MIN_POINTS, checked_request, discriminate as plan_run, to_line
+from ..diagnosis.discriminate import (DEFAULT_POINTS, MAX_POINTS, MIN_POINTS, changed, checked_request, checked_session,
+                                      discriminate as plan_run, readings_for, to_line, verdict_summary)
 from ..diagnosis.loading import load_runs
 from ..diagnosis.report import to_json, to_text, write_figures
 from ..errors import UserError
@@ -67,9 +68,13 @@ def _effects(text: str | None) -> tuple[str, ...] | None:
               help=f"Most set-points the plan may hold [{DEFAULT_POINTS}; {MIN_POINTS} to {MAX_POINTS}].")
 @click.option("--rig-time", "rig_time_s", type=float, metavar="S",
               help="Most rig time (s of dwell) the plan may take [the check run's].")
-@click.option("--force", is_flag=True, help="Replace an existing PLAN.csv.")
+@click.option("--discriminate-on", "rig_config", type=_PATH, metavar="CONFIG",
+              help="One step on the rig: acquire the plan as rig acquire --config CONFIG --sequence PLAN.csv "
+                   "would, into PLAN.h5 (grid of the diagnosis, the check run's readings), and diagnose again "
+                   "with it as one more check run; needs --discriminate.")
+@click.option("--force", is_flag=True, help="Replace an existing PLAN.csv (and, with --discriminate-on, PLAN.h5).")
 def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_min, v_max, method, effects, seed,
-             partial, fit_curves, check_curves, stride, plan_path, points, rig_time_s, force):
+             partial, fit_curves, check_curves, stride, plan_path, points, rig_time_s, rig_config, force):
     """Diagnose the sim-to-real gap of equation (22): fit on --fit, judge on --check.
 
     The model is identified on the identification run(s) only and judged on
@@ -80,6 +85,11 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     gap shrinks with it.
     """
     asked = checked_request(plan_path, points, rig_time_s, force)
+    session = checked_session(asked, rig_config)
+    if session is not None:
+        from drivers.config import load_config
+
+        load_config(rig_config)  # a bad rig.toml is bad input: said now, before the diagnosis's work
     checks = list(check_paths) + list(more_checks)
     loaded = load_runs(list(fit_paths), checks, levels, v_min, v_max, allow_partial=partial,
                        fit_curves=fit_curves, check_curves=check_curves, stride=stride)
@@ -93,16 +103,68 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     if out_dir is not None:
         written = write_figures(result, out_dir)
     follow_up = plan_run(result, list(loaded.check), asked, seed) if asked is not None else None
+    obj = to_json(result, fit_names, check_names, loaded.warnings, agreement) if as_json or session else None
+    if as_json and written:
+        obj["figures"] = [str(p) for p in written]
+    if session is not None:
+        follow_up.update(on=str(rig_config), session=None, acquisition=None, after=None, changed=None)
+        if follow_up["plan"] is not None:
+            follow_up["session"] = str(session)
+    if not as_json:
+        click.echo(to_text(result, fit_names, check_names, loaded.warnings, agreement))
+        if follow_up is not None:
+            click.echo(to_line(follow_up))
+            if session is not None and follow_up["plan"] is None:
+                click.echo("discriminate-on: nothing acquired (no plan was written)")
+        for p in written:
+            click.echo(f"wrote {p}")
+    if session is not None and follow_up["plan"] is not None:
+        obj["discriminate"] = follow_up
+        _acquire_plan(Path(follow_up["plan"]), session, rig_config, loaded.grid,
+                      readings_for(result, list(loaded.check)), follow_up, obj if as_json else None)
+        again = load_runs(list(fit_paths), checks, loaded.grid.levels, loaded.grid.v_min, loaded.grid.v_max,
+                          allow_partial=partial, fit_curves=fit_curves, check_curves=check_curves, stride=stride,
+                          extra_checks=[session])
+        second = run_diagnosis(again.fit, again.check, again.grid, settings,
+                               monitors=[np.asarray(m.output, dtype=float) for m in again.unique_monitors()])
+        again_names, again_agreement = check_names + [str(session)], drift_agreement(second, again)
+        after = to_json(second, fit_names, again_names, again.warnings, again_agreement)
+        follow_up.update(after=after, changed=changed(obj["verdict"], after["verdict"]))
+        if not as_json:
+            click.echo("")
+            click.echo(f"after the discriminating run ({session}): {verdict_summary(after['verdict'])} "
+                       f"(was {verdict_summary(obj['verdict'])})")
+            click.echo(to_text(second, fit_names, again_names, again.warnings, again_agreement))
     if as_json:
-        obj = to_json(result, fit_names, check_names, loaded.warnings, agreement)
-        if written:
-            obj["figures"] = [str(p) for p in written]
         if follow_up is not None:
             obj["discriminate"] = follow_up
         print_json(obj)
-        return
-    click.echo(to_text(result, fit_names, check_names, loaded.warnings, agreement))
-    if follow_up is not None:
-        click.echo(to_line(follow_up))
-    for p in written:
-        click.echo(f"wrote {p}")
+
+
+def _acquire_plan(plan: Path, session: Path, rig_config: Path, grid, readings: int | None, follow_up: dict,
+                  obj: dict | None) -> None:
+    """Acquire ``plan`` into ``session`` exactly as ``rig acquire --config RIG_CONFIG --sequence PLAN
+    --levels/--v-min/--v-max (the grid) --readings K --out SESSION`` does (same checks, cost line, sequencer,
+    Ctrl-C, heater to 0 V, exit codes 3 and 130); the run's summary goes into ``follow_up["acquisition"]``
+    and, in text (``obj`` None), is printed.  Aborted with ``--json``: ``obj`` is printed (no second
+    diagnosis) before the exit 130."""
+    from sessions import Status, read_session
+
+    from rig.acquisition import summarise
+
+    from .acquire import new_session, print_summary
+
+    def report(outcome) -> None:
+        summary = summarise(read_session(session), outcome)
+        follow_up["acquisition"] = summary
+        if obj is None:
+            print_summary(summary, False)
+        elif outcome.status is Status.ABORTED:
+            print_json(obj)
+
+    if session.exists() or session.is_symlink():  # --force, checked before the diagnosis
+        session.unlink()
+    kwargs = {} if readings is None else {"readings": int(readings)}
+    new_session(rig_config, session, sequence=str(plan), levels=grid.levels, v_min=grid.v_min, v_max=grid.v_max,
+                notes=f"rig diagnose --discriminate-on: the run that tells apart "
+                      f"{' and '.join(follow_up['between'])}", report=report, **kwargs)

@@ -7,6 +7,12 @@ gave (points, rig time), writes the file -- only when the plan separates
 the rivals by :data:`~identify.diagnosis.discriminate.TARGET_SEPARATION`
 noise levels -- and reports it in the JSON (``discriminate``) and in one
 line of text.
+
+``--discriminate-on CONFIG`` then acquires the plan on the rig (the command
+does that, through ``rig acquire``'s own path); this module names the
+session (:func:`checked_session`), the readings per point it is taken with
+(:func:`readings_for`) and says in one line how the verdict changed
+(:func:`verdict_summary`, :func:`changed`).
 """
 
 from __future__ import annotations
@@ -136,6 +142,61 @@ def discriminate(d: Diagnosis, checks: list[Run], asked: PlanRequest, seed: int 
     return out
 
 
+def checked_session(asked: PlanRequest | None, config_path: Path | None) -> Path | None:
+    """Where ``--discriminate-on CONFIG`` records the plan's session: the plan's path with the suffix
+    ``.h5``, checked before any work (:class:`UserError`, exit 2): ``--discriminate`` must be given, the
+    session must not be the plan itself, and an existing session is replaced only with ``--force`` (and
+    never one another process is writing).  None when no run is asked for."""
+    if config_path is None:
+        return None
+    if asked is None:
+        raise UserError("--discriminate-on runs the discriminating plan on the rig: give --discriminate PLAN.csv too")
+    session = asked.path.with_suffix(".h5")
+    if session == asked.path:
+        raise UserError(f"--discriminate {asked.path}: the plan is a CSV file (PLAN.csv); its session "
+                        f"would be the plan itself")
+    if session.is_dir():
+        raise UserError(f"{session} is a directory; the session of the discriminating run goes there")
+    if session.exists() or session.is_symlink():
+        if not asked.force:
+            raise UserError(f"{session} exists (the session --discriminate-on records); give --force to "
+                            f"replace it, or another plan path")
+        from sessions import DataFileError, read_session
+
+        try:
+            alive = read_session(session).writer_alive()
+        except DataFileError:
+            alive = False
+        if alive:
+            raise UserError(f"{session}: another process is writing this session now; it is not replaced")
+    return session
+
+
+def readings_for(d: Diagnosis, checks: list[Run]) -> int | None:
+    """The readings averaged per point of the check run the plan was compared with (None: not known)."""
+    return _check_run(d, checks).readings
+
+
+def verdict_summary(verdict: dict[str, Any]) -> str:
+    """A ``--json`` verdict in a few words: ``explained: creep``, ``ambiguous (creep, baseline_drift)``,
+    ``unexplained (best partial: creep)``, ``no_gap``, ``cannot_tell``."""
+    status = verdict["status"]
+    if status == "explained":
+        return f"explained: {' + '.join(verdict.get('effects') or [verdict.get('effect')])}"
+    if status == "ambiguous":
+        return f"ambiguous ({', '.join(verdict.get('rivals') or verdict.get('contenders') or [])})"
+    if status == "unexplained" and verdict.get("contenders"):
+        return f"unexplained (best partial: {verdict['contenders'][0]})"
+    return str(status)
+
+
+def changed(before: dict[str, Any], after: dict[str, Any]) -> str:
+    """How the verdict changed, in one line: ``ambiguous (creep, baseline_drift) -> explained: creep``
+    (``(unchanged)`` appended when it did not)."""
+    a, b = verdict_summary(before), verdict_summary(after)
+    return f"{a} -> {b}" + (" (unchanged)" if a == b else "")
+
+
 def to_line(obj: dict[str, Any]) -> str:
     """The text's one line about the discriminating run."""
     if obj["plan"] is None:
@@ -144,5 +205,6 @@ def to_line(obj: dict[str, Any]) -> str:
     on_check = "" if sep["check"] is None else f" (against {sep['check']:.1f} on the check run)"
     return (f"discriminate: wrote {obj['plan']} ({obj['points']} points, {obj['rig_time_s']:.0f} s of rig time) "
             f"to tell apart {' and '.join([', '.join(obj['between'][:-1]), obj['between'][-1]])}: predicted separation {sep['plan']:.1f} noise "
-            f"levels{on_check}; acquire it with rig acquire --sequence {obj['plan']} and diagnose again with "
-            f"both check runs")
+            f"levels{on_check}; "
+            + (f"acquiring it on {obj['on']} into {obj['session']}" if obj.get("on") else
+               f"acquire it with rig acquire --sequence {obj['plan']} and diagnose again with both check runs"))

@@ -108,13 +108,18 @@ def _disjoint(fit_curves: str, check_curves: str) -> bool:
 
 def load_runs(fit_paths: list[Path], check_paths: list[Path], levels: int | None = None,
               v_min: float | None = None, v_max: float | None = None, *, allow_partial: bool = False,
-              fit_curves: str = "all", check_curves: str = "all", stride: int | None = None) -> Loaded:
+              fit_curves: str = "all", check_curves: str = "all", stride: int | None = None,
+              extra_checks: list[Path] = ()) -> Loaded:
     """Read every file and decide the grid (the first identification session's, unless given).
 
     ``fit_curves``/``check_curves`` (``all``, ``even``, ``odd``) select the
     curves scored in the identification and check runs; ``stride`` thins
-    runs made of curves (default: :func:`default_stride`).
+    runs made of curves (default: :func:`default_stride`).  ``extra_checks``
+    are further check runs scored on all their measured points whatever
+    ``check_curves`` says (a discriminating run acquired after the others:
+    ``rig diagnose --discriminate-on``); they come after ``check_paths``.
     """
+    check_paths = list(check_paths) + list(extra_checks)
     if stride is not None and stride < 1:
         raise UserError(f"--stride {stride}: must be at least 1")
     for f in fit_paths:
@@ -123,7 +128,8 @@ def load_runs(fit_paths: list[Path], check_paths: list[Path], levels: int | None
                 raise UserError(f"{c}: is also an identification run; the diagnosis judges only on "
                                 "held-out runs, never on the data that was fitted (split a run made of "
                                 "curves with --fit-curves even --check-curves odd)")
-    selection = [fit_curves] * len(fit_paths) + [check_curves] * len(check_paths)
+    selection = ([fit_curves] * len(fit_paths) + [check_curves] * (len(check_paths) - len(extra_checks))
+                 + ["all"] * len(extra_checks))
     names = _names(list(fit_paths) + list(check_paths))
     names = [n if c == "all" else f"{n}:{c}" for n, c in zip(names, selection)]
     warnings: list[str] = []
