@@ -14,7 +14,7 @@ from .csvtrace import HEADER, Trace, read_trace, write_trace
 from .errors import DataFileError, StorageError
 from .models import ModelRecord
 from .reader import Session, SessionFollower, is_hdf5, read_session
-from .records import Event, ExcitationRecord, Quantities
+from .records import Event, ExcitationRecord, IdentifyRecipe, Quantities
 from .rewrite import add_model
 from .schema import SCHEMA_VERSION, TRACKING_COLUMNS, SampleFlag, Status
 from .writer import SessionWriter
@@ -26,6 +26,7 @@ __all__ = [
     "DataFileError",
     "Event",
     "ExcitationRecord",
+    "IdentifyRecipe",
     "ModelRecord",
     "Quantities",
     "SampleFlag",

@@ -25,7 +25,7 @@ from .checksums import read_checked
 from .errors import DataFileError
 from .lock import held_by_other
 from .models import ModelRecord, read_model_group
-from .records import CalibrationRecord, Event, ExcitationRecord, Quantities
+from .records import CalibrationRecord, Event, ExcitationRecord, IdentifyRecipe, Quantities
 from .schema import CALIBRATION_DTYPE, EVENT_DTYPE, FORMAT_NAME, SAMPLE_DTYPE, SCHEMA_VERSION, Status
 from .swmr import open_swmr_read
 
@@ -56,6 +56,9 @@ class Session:
     #: The extra ``/samples`` columns a producer added (a tracking run's ``target``, ``predicted``, ...), one
     #: row per sample; None when the session has none.
     extra: np.ndarray | None = None
+    #: How the session wants to be identified (root attribute ``identify_recipe``), written by ``rig acquire``;
+    #: None for a session that records none (every session written before it existed, imports, tracking runs).
+    recipe: IdentifyRecipe | None = None
 
     # ------------------------------------------------------------ status
     @property
@@ -231,6 +234,16 @@ def read_excitation(group: h5py.Group) -> ExcitationRecord:
     )
 
 
+def read_recipe(attrs: h5py.AttributeManager) -> IdentifyRecipe | None:
+    """The root attribute ``identify_recipe``, or ``None`` when the session has none."""
+    if "identify_recipe" not in attrs:
+        return None
+    try:
+        return IdentifyRecipe.from_dict(_json_attr(attrs, "identify_recipe"))
+    except DataFileError as exc:
+        raise DataFileError(f"attribute 'identify_recipe' is malformed: {exc}") from None
+
+
 def read_calibration(f: h5py.File) -> CalibrationRecord | None:
     """``/calibration``, or ``None`` when the session has none."""
     if "calibration" not in f:
@@ -318,6 +331,7 @@ def _read(path: Path, f: h5py.File) -> Session:
         models={name: read_model_group(models[name]) for name in models},
         calibration=read_calibration(f),
         extra=extra_columns(raw, n),
+        recipe=read_recipe(a),
     )
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -160,3 +161,70 @@ class Event:
     status: Status
     event: str
     message: str = ""
+
+
+@dataclass(frozen=True)
+class IdentifyRecipe:
+    """How a session wants to be identified: what ``rig identify SESSION`` does when not told otherwise.
+
+    ``method`` names an identification method (``ls``, ``smooth_nn``, ...);
+    ``levels``, ``v_min`` and ``v_max`` the grid (``None``: the default --
+    the session's excitation grid, else the measured inputs' range);
+    ``effects`` the effects to fit with the density (``NAME[:OPTION]``, as
+    ``rig identify --with``); ``thermal_term`` whether to fit ``c_d v``;
+    ``reason`` says, for a person, why this recipe.  Stored as the JSON root
+    attribute ``identify_recipe`` (``docs/sessions.md``); the method and
+    effect names are checked when the recipe is used, not when it is read,
+    so that a session naming a method this version does not know still reads.
+    """
+
+    method: str = "ls"
+    levels: int | None = None
+    v_min: float | None = None
+    v_max: float | None = None
+    effects: tuple[str, ...] = ()
+    thermal_term: bool = True
+    reason: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.method, str) or not self.method.strip():
+            raise DataFileError(f"identification recipe: method must be a method's name, got {self.method!r}")
+        if self.levels is not None and (isinstance(self.levels, bool) or not isinstance(self.levels, int)
+                                        or self.levels < 1):
+            raise DataFileError(f"identification recipe: levels must be a whole number >= 1, got {self.levels!r}")
+        for key in ("v_min", "v_max"):
+            x = getattr(self, key)
+            if x is None:
+                continue
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+                raise DataFileError(f"identification recipe: {key} must be a finite number, got {x!r}")
+            object.__setattr__(self, key, float(x))
+        if self.v_min is not None and self.v_max is not None and not self.v_max > self.v_min:
+            raise DataFileError(f"identification recipe: needs v_max > v_min, got [{self.v_min}, {self.v_max}]")
+        effects = self.effects
+        if isinstance(effects, str) or not all(isinstance(e, str) and e.strip() for e in effects):
+            raise DataFileError(f"identification recipe: effects must be a list of effect names, got {effects!r}")
+        object.__setattr__(self, "effects", tuple(e.strip() for e in effects))
+        if not isinstance(self.thermal_term, bool):
+            raise DataFileError(f"identification recipe: thermal_term must be true or false, got {self.thermal_term!r}")
+        if not isinstance(self.reason, str):
+            raise DataFileError(f"identification recipe: reason must be text, got {self.reason!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The stored form: ``{"method", "levels", "v_min", "v_max", "effects", "thermal_term", "reason"}``."""
+        return {"method": self.method, "levels": self.levels, "v_min": self.v_min, "v_max": self.v_max,
+                "effects": list(self.effects), "thermal_term": self.thermal_term, "reason": self.reason}
+
+    @classmethod
+    def from_dict(cls, data: Any) -> "IdentifyRecipe":
+        """The recipe of its stored form (keys this version does not know are ignored; missing ones take
+        the defaults); :class:`DataFileError` when malformed."""
+        if not isinstance(data, dict):
+            raise DataFileError(f"identification recipe must be a JSON object, got {type(data).__name__}")
+        known = {k: data[k] for k in cls.__dataclass_fields__ if k in data}
+        if "effects" in known:
+            if not isinstance(known["effects"], list):
+                raise DataFileError(f"identification recipe: effects must be a list of effect names, "
+                                    f"got {known['effects']!r}")
+            known["effects"] = tuple(known["effects"])
+        return cls(**known)

@@ -8,7 +8,8 @@ In short::
     /                   attrs: format, schema_version, software_version, created_at,
                                operator, notes, rig_config (JSON), driver (JSON),
                                input_quantity, input_unit, output_quantity,
-                               output_unit, raw_quantity, raw_unit
+                               output_unit, raw_quantity, raw_unit,
+                               identify_recipe (JSON, optional: how to identify the session)
     /samples            one row per applied point, appended and flushed one at a time
                         (SAMPLE_DTYPE; row k is point k of the excitation)
     /log                the session's events (EVENT_DTYPE); the status is the last

@@ -53,7 +53,7 @@ from .lock import WriterLock
 from .log import append_event
 from .models import ModelRecord, write_model_group
 from .reader import sample_columns
-from .records import CalibrationRecord, ExcitationRecord, Quantities
+from .records import CalibrationRecord, ExcitationRecord, IdentifyRecipe, Quantities
 from .rewrite import rewrite_session
 from .storage import Reserve, abandon, check_free_space, storage_reason
 from .schema import (
@@ -87,11 +87,13 @@ def write_layout(
     calibration: CalibrationRecord | None = None,
     sample_columns: np.dtype | None = None,
     models: tuple[ModelRecord, ...] = (),
+    recipe: IdentifyRecipe | None = None,
 ) -> None:
     """Everything of a new session but its samples and events (see ``docs/sessions.md``).
 
     ``sample_columns``: extra ``/samples`` columns (a tracking run's, :data:`~sessions.schema.TRACKING_COLUMNS`);
-    ``models``: models stored from the start (the model a tracking run inverts)."""
+    ``models``: models stored from the start (the model a tracking run inverts); ``recipe``: how the
+    session wants to be identified (the root attribute ``identify_recipe``; None: none is written)."""
     a = f.attrs
     a["format"] = FORMAT_NAME
     a["schema_version"] = SCHEMA_VERSION
@@ -103,6 +105,8 @@ def write_layout(
     a["driver"] = _json(driver)
     for key, value in quantities.to_attrs().items():
         a[key] = value
+    if recipe is not None:  # an attribute: written now, before SWMR mode allows only growing datasets
+        a["identify_recipe"] = _json(recipe.to_dict())
     g = f.create_group("excitation")
     g.attrs["kind"] = excitation.kind
     g.attrs["thermal_term"] = bool(excitation.thermal_term)
@@ -198,6 +202,7 @@ class SessionWriter:
         fsync_interval_s: float | None = 1.0,
         sample_columns: np.dtype | None = None,
         models: tuple[ModelRecord, ...] = (),
+        recipe: IdentifyRecipe | None = None,
     ) -> "SessionWriter":
         """Create a new session at ``path`` (never overwrites) with status ``running``.
 
@@ -205,7 +210,8 @@ class SessionWriter:
         (drift-monitor points, e.g. of an imported FORC file) as ``/calibration``; ``fsync_interval_s``
         bounds how often the file is synced to disk (0: after every sample,
         ``None``: only on close); ``sample_columns`` adds columns to ``/samples``
-        (:meth:`append`'s ``extra``) and ``models`` stores models from the start.
+        (:meth:`append`'s ``extra``) and ``models`` stores models from the start; ``recipe`` records how
+        the session wants to be identified (``rig identify``'s defaults for it; None: none is recorded).
         """
         path = Path(path)
         if path.exists():
@@ -234,7 +240,7 @@ class SessionWriter:
             try:
                 reserve.take()
                 write_layout(f, excitation, quantities or Quantities(), operator, notes, rig_config, driver,
-                             calibration, sample_columns, tuple(models))
+                             calibration, sample_columns, tuple(models), recipe)
             except (OSError, RuntimeError) as exc:
                 raise StorageError(f"{path}: cannot create the session ({storage_reason(exc)}); nothing was "
                                    "recorded") from None
