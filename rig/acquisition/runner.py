@@ -40,7 +40,8 @@ import numpy as np
 
 from drivers.protocols import SafeState
 from drivers.rig import Rig
-from sessions import DataFileError, ExcitationRecord, ModelRecord, SampleFlag, Session, SessionWriter, Status, read_session
+from sessions import (DataFileError, ExcitationRecord, IdentifyRecipe, ModelRecord, SampleFlag, Session, SessionWriter,
+                      Status, read_session)
 
 from .dwell import DwellSettings
 from .engine import PointResult, Sequencer
@@ -111,6 +112,7 @@ def acquire(
     setpoints: SetpointSource | None = None,
     sample_columns: np.dtype | None = None,
     models: tuple[ModelRecord, ...] = (),
+    recipe: IdentifyRecipe | None = None,
 ) -> RunOutcome:
     """Run ``record`` (an excitation with its measure plan and dwell settings, see
     :func:`~rig.acquisition.plan.make_record`) on ``rig`` into the new session ``path``.
@@ -119,7 +121,8 @@ def acquire(
     Raises before creating the session when the plan does not fit the heater.
     A tracking run gives ``setpoints`` (which decides each set-point as it is
     applied), the extra ``sample_columns`` it records and the ``models`` to
-    store from the start.
+    store from the start.  ``recipe`` is recorded as how the session wants to
+    be identified (:func:`~rig.acquisition.recipe.default_recipe`).
     """
     plan = AcquisitionPlan.from_record(record)
     plan.check_window(rig.heater.window, rig.heater.check_setpoint)  # as the wire carries them, full scale too
@@ -129,7 +132,7 @@ def acquire(
     writer = SessionWriter.create(
         path, record, rig_config=rig.config.to_dict(), driver=rig.description,
         operator=operator, notes=notes, fsync_interval_s=fsync_interval_s,
-        sample_columns=sample_columns, models=models,
+        sample_columns=sample_columns, models=models, recipe=recipe,
     )
     seq = Sequencer(rig.heater, rig.sensor, rig.clock, plan, settings, writer,
                     pause=hooks.pause, on_pause=hooks.on_pause, on_sample=hooks.on_sample, setpoints=setpoints)

@@ -77,4 +77,5 @@ def summarise(session: Session, outcome: RunOutcome) -> dict[str, Any]:
         "time_saved_fraction": saved / full if full > 0 else 0.0,
         "wall_s": outcome.wall_s,
         "message": outcome.message,
+        "identify_recipe": None if session.recipe is None else session.recipe.to_dict(),
     }

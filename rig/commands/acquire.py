@@ -26,6 +26,7 @@ from rig.acquisition import (
     sequence_record,
     summarise,
 )
+from rig.acquisition.recipe import default_recipe, given_recipe
 from rig.acquisition.runner import resumable
 from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS
 from sessions import DataFileError, read_session
@@ -38,7 +39,7 @@ from ..run_driver import config_for_resume, drive
 
 #: Options that describe a new run; a resumed run takes all of them from its session.
 PLAN_OPTIONS = ("sequence", "levels", "v_min", "v_max", "thermal_term", "points", "seed", "dwell", "dwells",
-                "settle", "poll", "transit", "readings", "measure", "out", "operator", "notes")
+                "settle", "poll", "transit", "readings", "measure", "out", "operator", "notes", "identify_with")
 
 
 def _settings(dwell: float, settle: float | None, poll: float, transit: float, readings: int,
@@ -84,6 +85,18 @@ def print_summary(summary: dict, as_json: bool) -> None:
             f"compressive: measuring every point would take ~{format_duration(s['full_time_s'])}; "
             f"saved {format_duration(s['time_saved_s'])} ({100 * s['time_saved_fraction']:.0f}%)"
         )
+    if s.get("identify_recipe"):
+        click.echo(f"rig identify {s['session']} will use: {describe_recipe(s['identify_recipe'])}")
+
+
+def describe_recipe(r: dict) -> str:
+    """A stored identification recipe in a few words: ``ls, L=8 on [0, 6], thermal term, no effects``."""
+    grid = "no grid" if r.get("levels") is None else f"L={r['levels']}"
+    if r.get("v_min") is not None and r.get("v_max") is not None:
+        grid += f" on [{r['v_min']:g}, {r['v_max']:g}]"
+    thermal = "thermal term" if r.get("thermal_term", True) else "no thermal term"
+    effects = ("with " + ",".join(r["effects"])) if r.get("effects") else "no effects"
+    return f"{r['method']}, {grid}, {thermal}, {effects}"
 
 
 @click.command()
@@ -119,6 +132,10 @@ def print_summary(summary: dict, as_json: bool) -> None:
 @click.option("--out", "-o", type=click.Path(dir_okay=False, path_type=Path), help="Session file to create (HDF5).")
 @click.option("--resume", "resume_path", type=click.Path(dir_okay=False, path_type=Path),
               help="Continue this interrupted session instead (its plan and settings).")
+@click.option("--identify-with", metavar="METHOD[:EFFECT,...]",
+              help="Record in the session that it is to be identified with this method (and these effects, "
+                   "as rig identify --with); rig identify uses it unless told otherwise "
+                   "[ls on the run's grid, no effects].")
 @click.option("--operator", default="", help="Who runs the acquisition.")
 @click.option("--notes", default="", help="Free-text notes stored with the session.")
 @click.option("--progress/--no-progress", default=None, help="Progress bar on stderr [when stderr is a terminal].")
@@ -127,7 +144,7 @@ def print_summary(summary: dict, as_json: bool) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.pass_context
 def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, points, seed, dwell, dwells, settle, poll,
-            transit, readings, measure, out, resume_path, operator, notes, progress, yes, as_json):
+            transit, readings, measure, out, resume_path, identify_with, operator, notes, progress, yes, as_json):
     """Apply an excitation on the rig and record every point in the session OUT.
 
     Without --config this runs on the simulated device and its virtual
@@ -135,6 +152,8 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
     asks to resume or abort -- without a terminal it aborts there; twice
     aborts at once.  Abort or error: heater to 0 V, session kept;
     `rig acquire --resume OUT` restores the memory state and continues.
+    The session records how it is to be identified (see --identify-with),
+    which `rig identify OUT` uses.
     """
     if resume_path is not None:
         given = [f"--{n.replace('_', '-')}" for n in PLAN_OPTIONS
@@ -156,7 +175,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
     new_session(config_path, out, sequence=sequence, levels=levels, v_min=v_min, v_max=v_max,
                 thermal_term=thermal_term, points=points, seed=seed, dwell=dwell, dwells=dwells, settle=settle,
                 poll=poll, transit=transit, readings=readings, measure=measure, operator=operator, notes=notes,
-                progress=progress, yes=yes,
+                progress=progress, yes=yes, identify_with=identify_with,
                 report=lambda outcome: print_summary(summarise(read_session(out), outcome), as_json))
 
 
@@ -165,11 +184,14 @@ def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped"
                 points: int | None = None, seed: int = 0, dwell: float = 20.0, dwells: str | None = None,
                 settle: float | None = None, poll: float = 0.5, transit: float = 0.0, readings: int = 4,
                 measure: int | None = None, operator: str = "", notes: str = "", progress: bool | None = None,
-                yes: bool = False, report: Callable[[RunOutcome], None] | None = None) -> RunOutcome:
+                yes: bool = False, report: Callable[[RunOutcome], None] | None = None,
+                identify_with: str | None = None) -> RunOutcome:
     """``rig acquire --config CONFIG_PATH --out OUT ...`` (a new run; the keywords are its options, with
     its defaults): build and check the plan, state its cost on stderr, open the rig, run, and end as
     :func:`~rig.run_driver.drive` does (heater to 0 V; aborted: exit 130; a fault: exit 3).
-    ``report(outcome)`` prints the summary (default: nothing).  Other commands that acquire a run
+    ``report(outcome)`` prints the summary (default: nothing).  The session records its identification
+    recipe: :func:`~rig.acquisition.recipe.default_recipe`, or ``identify_with``'s method and effects
+    (``METHOD[:EFFECT,...]``).  Other commands that acquire a run
     (``rig diagnose --discriminate-on``) call this, so their runs are acquisitions like any other."""
     if out.exists() or out.is_symlink():
         raise DataFileError(f"{out}: already exists; a session is never overwritten")
@@ -186,11 +208,13 @@ def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped"
                         seed=seed, thermal_term=thermal_term),
         settings, measure, seed,
     )
+    recipe = default_recipe(record) if identify_with is None else given_recipe(identify_with, record)
     plan = AcquisitionPlan.from_record(record)
     plan.check_window(window, rules.check)  # before the rig is touched
     announce(plan, dwell, transit, settings.schedule, settle is not None, cfg.clock_kind == "virtual", yes)
 
     def run(rig, hooks):
-        return run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes, hooks=hooks)
+        return run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes, hooks=hooks,
+                               recipe=recipe)
 
     return drive(cfg, out, record.n_points, 0, progress, run, report or (lambda outcome: None), "rig acquire")
