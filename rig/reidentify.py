@@ -13,6 +13,12 @@ nothing up to the storing:
 3. :func:`store_model` writes the model into its session
    (:func:`sessions.add_model`: a checked copy renamed over the original).
 
+Settings from the session (``rig acquire`` records how a session wants to
+be identified, :class:`sessions.IdentifyRecipe`): the settings a caller
+leaves to it (:attr:`IdentifyOptions.from_recipe`; ``rig identify`` leaves
+every one it is not given) come from the session's recipe when it has one
+(:func:`apply_recipe`), and the job says where each came from.
+
 Storing policy (``--store``, the default, for sessions; a CSV trace is
 never modified): the model goes to ``/models/NAME``, NAME being ``--name``
 or :func:`default_model_name`.  A partial session is fitted only with
@@ -34,7 +40,7 @@ import numpy as np
 from identify import Grid, IdentifyError
 from identify.fit import FitReport, fit_run, fit_sequence, measurement_rows
 from identify.runs import Run
-from sessions import ModelRecord, add_model
+from sessions import IdentifyRecipe, ModelRecord, add_model
 from sessions.models import check_model_name
 from sessions.recording import Recording
 
@@ -155,6 +161,47 @@ class IdentifyOptions:
     curves: str = "all"
     #: Effects fitted jointly with the density (``--with``), as ``NAME[:OPTION]``.
     effects: tuple[str, ...] = ()
+    #: The settings (names among :data:`RECIPE_SETTINGS`) left to a session's identification recipe: for a
+    #: session that records one they come from it; the values above are what any other file gets.  Empty
+    #: (the default): the options are used as they are.  ``rig identify`` leaves every setting it is not given.
+    from_recipe: frozenset[str] = frozenset()
+
+
+#: The settings an identification recipe holds, by their :class:`IdentifyOptions` names.
+RECIPE_SETTINGS = ("method", "levels", "v_min", "v_max", "thermal_term", "effects")
+
+
+def apply_recipe(o: IdentifyOptions, recipe: IdentifyRecipe | None, path: Path) -> tuple[IdentifyOptions, dict]:
+    """The options for one file: ``o`` with the settings it leaves to the recipe taken from ``recipe`` (the
+    session's, None: it has none), and where each setting came from: ``{"method": "session", ...}`` --
+    ``option`` (given), ``session`` (the recipe) or ``default`` (left to the recipe, which does not set it:
+    what ``rig identify`` does for a file without one)."""
+    sources = {}
+    changes = {}
+    for key in RECIPE_SETTINGS:
+        if key not in o.from_recipe:
+            sources[key] = "option"
+            continue
+        value = None if recipe is None else getattr(recipe, key)
+        if value is None:
+            sources[key] = "default"
+            continue
+        sources[key] = "session"
+        changes[key] = value
+    if changes.get("method") is not None:
+        from identify.methods import METHODS
+
+        if changes["method"] not in METHODS:
+            raise UserError(f"{path}: its identification recipe names the method {changes['method']!r}, which this "
+                            f"version does not know; give --method ({', '.join(METHODS)})")
+    if changes.get("effects"):
+        from identify.effects import parse_effects
+
+        try:
+            parse_effects(changes["effects"])
+        except IdentifyError as exc:
+            raise UserError(f"{path}: its identification recipe's effects: {exc}; give --with") from None
+    return dataclasses.replace(o, **changes), sources
 
 
 @dataclass(frozen=True, eq=False)
@@ -192,6 +239,10 @@ class IdentifyJob:
     run: Run | None = None
     #: The grid the session records (None: none), which :func:`check_grid` compares ``grid`` with.
     recorded_grid: Grid | None = None
+    #: The identification recipe the session records (None: none) and where each setting of this job came
+    #: from (:func:`apply_recipe`).
+    recipe: IdentifyRecipe | None = None
+    sources: dict[str, str] | None = None
 
 
 def _store_as(data: Recording, o: IdentifyOptions, grid: Grid) -> str | None:
@@ -224,6 +275,8 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
     """Read ``path`` and check everything about fitting it and storing the result."""
     path = Path(path)
     data = open_run(path, allow_partial=o.partial)
+    recipe = None if data.session is None else data.session.recipe
+    o, sources = apply_recipe(o, recipe, path)
     if o.name is not None and data.session is None:
         raise UserError(f"--name stores the model in a session, but {path} is a CSV trace (rig import it first)")
     grid = grid_for(o.levels, o.v_min, o.v_max, data)
@@ -234,7 +287,7 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
             what += f" on the {o.curves} curves"
         raise UserError(f"--measurements {o.measurements} must be between 1 and {what}")
     rows = measurement_rows(grid, data.inputs, o.measurements, o.seed, o.thermal_term, candidates)
-    run = _effects_run(path, data, grid, rows, o) if o.effects else None
+    run = _effects_run(path, data, grid, rows, o, sources["effects"]) if o.effects else None
     s = data.session
     return IdentifyJob(
         path=path,
@@ -256,6 +309,8 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
         effects=o.effects,
         run=run,
         recorded_grid=data.grid,
+        recipe=recipe,
+        sources=sources,
     )
 
 
@@ -286,18 +341,21 @@ def check_grid(job: IdentifyJob, yes: bool) -> None:
                         f"thermal term cannot be identified, because {mismatch}; use -L {recorded.levels} (or no -L)")
 
 
-def _effects_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: IdentifyOptions) -> Run:
+def _effects_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: IdentifyOptions,
+                 source: str = "option") -> Run:
     """The run the effects act on, checked before anything is fitted: known effects, a method that can
-    fit them, and runs that can identify them (one-line errors otherwise)."""
+    fit them, and runs that can identify them (one-line errors otherwise; ``source``: where the effects
+    came from, ``session`` naming the session's recipe)."""
     from identify.effects import parse_effects
     from identify.methods import METHODS
 
     effects = parse_effects(o.effects)
+    given = "--with" if source != "session" else f"{path}: the effects of its identification recipe"
     if METHODS[o.method].needs_curves:
-        raise UserError(f"--with: {o.method} takes the density from the curves' second differences and fits "
+        raise UserError(f"{given}: {o.method} takes the density from the curves' second differences and fits "
                         "no other terms; fit effects with ls or smooth_nn")
     if METHODS[o.method].needs_square:
-        raise UserError(f"--with: {o.method} needs the square damped-oscillation design, which has no room for "
+        raise UserError(f"{given}: {o.method} needs the square damped-oscillation design, which has no room for "
                         "effect terms; fit effects with ls or smooth_nn (or everett on FORC data)")
     run = run_of(data, rows=rows)
     for e in effects:
@@ -349,12 +407,24 @@ def store_model(job: IdentifyJob, report: FitReport, force: bool) -> ModelRecord
     return record
 
 
+def recipe_dict(job: IdentifyJob) -> dict:
+    """The settings the fit used and where each came from (``from``: ``option``, ``session`` or ``default``),
+    with the session's recipe as stored (``stored``)."""
+    g = job.grid
+    return {"method": job.method, "levels": g.levels, "v_min": g.v_min, "v_max": g.v_max,
+            "thermal_term": job.thermal_term, "effects": list(job.effects), "from": dict(job.sources or {}),
+            "stored": None if job.recipe is None else job.recipe.to_dict()}
+
+
 def result_dict(job: IdentifyJob, report: FitReport) -> dict:
-    """The JSON object of one file: :func:`report_dict`, plus ``name`` when the model is stored."""
+    """The JSON object of one file: :func:`report_dict`, plus ``name`` when the model is stored and
+    ``recipe`` (:func:`recipe_dict`) when the session records an identification recipe."""
     result = report_dict(report, thermal_term_used(job), job.seed)
     result["curves"] = job.curve_selection
     if job.store_as is not None:
         result["name"] = job.store_as
+    if job.recipe is not None:
+        result["recipe"] = recipe_dict(job)
     return result
 
 

@@ -60,9 +60,9 @@ def default_recipe(record: ExcitationRecord) -> IdentifyRecipe:
 
 def parse_identify_with(text: str) -> tuple[str, tuple[str, ...]]:
     """``METHOD[:EFFECT,...]`` as ``(method, effects)``; an effect keeps its option (``reversible:monotone``)."""
-    method, _, rest = text.partition(":")
+    method, colon, rest = text.partition(":")
     method = method.strip()
-    effects = tuple(e.strip() for e in rest.split(",")) if rest.strip() else ()
+    effects = tuple(e.strip() for e in rest.split(",")) if colon else ()
     if not method or "" in effects:
         raise AcquisitionError(f"--identify-with {text!r}: expected METHOD[:EFFECT,...], e.g. ls, smooth_nn or "
                                "ls:thermal_lag,creep")
@@ -90,7 +90,12 @@ def given_recipe(text: str, record: ExcitationRecord) -> IdentifyRecipe:
         if cls.needs_square:
             raise AcquisitionError(f"--identify-with {text!r}: {method} needs the square damped-oscillation design, "
                                    "which has no room for effect terms; fit effects with ls or smooth_nn")
-        parse_effects(effects)  # unknown names, options or repeats: one line, before the rig is touched
+        from identify import IdentifyError
+
+        try:
+            parse_effects(effects)  # unknown names, options or repeats: one line, before the rig is touched
+        except IdentifyError as exc:
+            raise AcquisitionError(f"--identify-with {text!r}: {exc}") from None
     base = default_recipe(record)
     return dataclasses.replace(base, method=method, effects=effects,
                                reason=f"rig acquire --identify-with {text.strip()}")

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 import click
+from click.core import ParameterSource
 
 from identify import METHODS
 from identify.methods.base import SOLVERS
@@ -20,7 +21,8 @@ from ..fit_progress import fit_in_process
 from ..options import AliasedOption, scheduler_option
 from ..output import format_table, print_json, unit_token
 from ..parallel import cluster_workers, default_workers, run_parallel, start_workers
-from ..reidentify import IdentifyOptions, check_grid, fit_job, plan_jobs, result_dict, store_model
+from ..reidentify import (RECIPE_SETTINGS, IdentifyOptions, check_grid, fit_job, plan_jobs, result_dict,
+                          store_model)
 
 
 #: What the worker processes import before they fork (fit_job and everything it needs).
@@ -61,14 +63,16 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
 @click.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--levels", "-L", type=int,
-              help="Discretisation levels L (>= 1); default for a session: its excitation's.")
+              help="Discretisation levels L (>= 1); default for a session: its recipe's, else its excitation's.")
 @click.option("--v-min", type=float,
-              help="Lower end of the grid (input unit); default: the session's grid, else the smallest measured input.")
+              help="Lower end of the grid (input unit); default: the session's recipe's or grid, else the smallest "
+                   "measured input.")
 @click.option("--v-max", type=float,
-              help="Upper end of the grid (input unit); default: the session's grid, else the largest measured input.")
+              help="Upper end of the grid (input unit); default: the session's recipe's or grid, else the largest "
+                   "measured input.")
 @click.option(
-    "--method", type=click.Choice(list(METHODS)), default="ls", show_default=True,
-    help="Identification method.",
+    "--method", type=click.Choice(list(METHODS)), default="ls",
+    help="Identification method [ls; a session that records a recipe: its method].",
 )
 @click.option(
     "--solver", type=click.Choice(list(SOLVERS)), default=None,
@@ -83,11 +87,11 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
                    "e.g. an imported FORC file); every applied point still sets the memory state.")
 @click.option(
     "--thermal-term/--no-thermal-term", default=True, show_default=True,
-    help="Fit the linear thermal term c_d v of equation (22).",
+    help="Fit the linear thermal term c_d v of equation (22) [a session that records a recipe: as it says].",
 )
 @click.option("--with", "with_effects", multiple=True, metavar="EFFECT[,EFFECT...]",
               help="Fit these unmodelled effects jointly with the density and keep them in the model "
-                   f"(ls, smooth_nn): {effect_spellings()}.")
+                   f"(ls, smooth_nn): {effect_spellings()} [none; a session that records a recipe: its effects].")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--out", "-o", "save", cls=AliasedOption, aliases=("--save",), type=click.Path(path_type=Path),
               metavar="PATH",
@@ -104,7 +108,8 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
 @click.option("--yes", is_flag=True,
               help="Fit even when the estimate is over the documented limits (30 min or 4 GB per file), or the grid "
                    "has far more cells (over 20 per point) than the measured points can identify.")
-def identify(files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, with_effects,
+@click.pass_context
+def identify(ctx, files, levels, v_min, v_max, method, solver, measurements, seed, curves, thermal_term, with_effects,
              as_json, save, name, store, force, partial, jobs, scheduler, yes):
     """Identify a Preisach model from each FILE: a session (HDF5) or a CSV trace (t_s,v_V,deflection_um).
 
@@ -114,6 +119,10 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
     is never replaced without --force. Several files are fitted in
     parallel; every file is checked before any is fitted, and nothing is
     stored unless every fit succeeds.
+
+    A session that records how it wants to be identified (rig acquire
+    writes it) is fitted that way -- method, grid, thermal term, effects --
+    except for the options given, which always win.
     """
     if name is not None and not store:
         raise UserError("--name stores the model; it cannot go with --no-store")
@@ -129,8 +138,12 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
         from identify.effects import parse_effects
 
         parse_effects(effects)  # unknown names, options or repeats: one line before any file is read
+    params = {"method": "method", "levels": "levels", "v_min": "v_min", "v_max": "v_max",
+              "thermal_term": "thermal_term", "effects": "with_effects"}
+    from_recipe = frozenset(key for key in RECIPE_SETTINGS
+                            if ctx.get_parameter_source(params[key]) in (ParameterSource.DEFAULT, None))
     options = IdentifyOptions(levels, v_min, v_max, method, measurements, seed, thermal_term, store, name, force,
-                              partial, solver=solver, curves=curves, effects=effects)
+                              partial, solver=solver, curves=curves, effects=effects, from_recipe=from_recipe)
     targets = save_targets(save, paths)
     start = time.perf_counter()
     if scheduler is not None:
@@ -179,9 +192,26 @@ def identify(files, levels, v_min, v_max, method, solver, measurements, seed, cu
         _print_batch(planned, reports, workers, seconds, scheduler)
 
 
+def describe_sources(job) -> str:
+    """Where the settings of a job came from, in one line (for a session that records a recipe)."""
+    g, src = job.grid, job.sources or {}
+    items = [("method", f"method {job.method}"), ("levels", f"L={g.levels}"),
+             ("v_min", f"v_min {g.v_min:g}"), ("v_max", f"v_max {g.v_max:g}"),
+             ("thermal_term", "thermal term" if job.thermal_term else "no thermal term"),
+             ("effects", f"with {','.join(job.effects)}" if job.effects else "no effects")]
+    words = {"session": "the session's recipe", "option": "given", "default": "default"}
+    groups: dict[str, list[str]] = {}
+    for key, text in items:
+        groups.setdefault(src.get(key, "option"), []).append(text)
+    return "; ".join(f"from {words[k]}: {', '.join(v)}" if k == "session" else f"{words[k]}: {', '.join(v)}"
+                     for k, v in groups.items())
+
+
 def _print_one(job, report) -> None:
     g, m, u = job.grid, report.model, unit_token(job.output_unit)
     click.echo(f"{job.path}: {report.method} on L={g.levels} levels, [{g.v_min:g}, {g.v_max:g}] {job.input_unit}")
+    if job.recipe is not None:
+        click.echo(f"settings {describe_sources(job)}")
     click.echo(
         format_table(
             ["measured", "of", f"rmse_{u}", "nrmse", f"max_abs_{u}", f"mu0_{u}",
@@ -209,6 +239,10 @@ def _print_batch(planned, reports, workers, seconds, scheduler=None) -> None:
             row.insert(6, job.output_unit)
         rows.append(row)
     click.echo(format_table(headers, rows))
+    recipes = [job for job in planned if job.recipe is not None and "session" in (job.sources or {}).values()]
+    if recipes:
+        click.echo(f"{len(recipes)} of {len(planned)} files fitted (in part) as their session's recipe says "
+                   "(--json: recipe.from says where each setting came from)")
     where = f"{workers} process{'es' if workers > 1 else ''}"
     if scheduler is not None:
         where = f"the cluster at {scheduler} ({workers} worker thread{'s' if workers > 1 else ''})"
