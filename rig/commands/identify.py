@@ -200,11 +200,11 @@ def describe_sources(job) -> str:
              ("thermal_term", "thermal term" if job.thermal_term else "no thermal term"),
              ("effects", f"with {','.join(job.effects)}" if job.effects else "no effects")]
     words = {"session": "the session's recipe", "option": "given", "default": "default"}
-    groups: dict[str, list[str]] = {}
+    groups: dict[str, list[str]] = {k: [] for k in words}  # in this order: the session's, given, default
     for key, text in items:
-        groups.setdefault(src.get(key, "option"), []).append(text)
+        groups[src.get(key, "option")].append(text)
     return "; ".join(f"from {words[k]}: {', '.join(v)}" if k == "session" else f"{words[k]}: {', '.join(v)}"
-                     for k, v in groups.items())
+                     for k, v in groups.items() if v)
 
 
 def _print_one(job, report) -> None:
