@@ -75,6 +75,23 @@ def _verdict(js: dict[str, Any]) -> dict[str, Any]:
             "shrink": v.get("shrink")}
 
 
+def achieved_separation(fit: Path, check: Path, plan: Path, between: list[str]) -> dict[str, float]:
+    """What the simulated plan run achieved between the rivals (``identify.diagnosis.discriminate.achieved``):
+    the first diagnosis is run again in this process (as ``rig diagnose`` does) for its fitted rivals."""
+    from identify.diagnosis import DiagnosisSettings, diagnose
+    from identify.diagnosis.discriminate import achieved, noise_of, rival_of
+    from rig.diagnosis.discriminate import _check_run
+    from rig.diagnosis.loading import load_runs
+
+    loaded = load_runs([fit], [check])
+    d = diagnose(loaded.fit, loaded.check, loaded.grid, DiagnosisSettings(),
+                 monitors=[np.asarray(m.output, dtype=float) for m in loaded.unique_monitors()])
+    reference = _check_run(d, list(loaded.check))
+    rivals = [rival_of(d, n, reference) for n in between]
+    run = load_runs([fit], [plan]).check[0]
+    return achieved(rivals, d.base.model, run, noise_of(d))
+
+
 def follow_up(row: dict[str, Any], keep: Path) -> dict[str, Any]:
     """The before and after of one case (see the module doc)."""
     t0 = time.perf_counter()
@@ -103,6 +120,7 @@ def follow_up(row: dict[str, Any], keep: Path) -> dict[str, Any]:
     out["prefix_stable"] = prefix_stable(gen, device, sched, effects, seed, row["label"])
     runs = simulate(gen, device, sched3, effects, seed, row["label"], True)
     paths = [_import(device, r, d / f"{name}3.csv", d / f"{name}3.h5") for name, r in zip(("fit", "check", "plan"), runs)]
+    out["achieved_separation"] = achieved_separation(d / "fit.h5", d / "check.h5", paths[2], disc["between"])
     code, stdout, err = _rig("diagnose", "--fit", str(paths[0]), "--check", str(paths[1]), str(paths[2]), "--json")
     if code != 0:
         return {**out, "after": "error", "reason": err.strip().splitlines()[-1] if err.strip() else f"exit {code}"}
@@ -147,16 +165,21 @@ def table(rows: list[dict[str, Any]], all_rows: list[dict[str, Any]]) -> dict[st
             "separation_plan": float(np.median([p["predicted_separation"]["plan"] for p in plans])) if plans else None,
             "separation_check": float(np.median([p["predicted_separation"]["check"] or 0.0 for p in plans])) if plans else None,
             "rig_time_s": float(np.sum([p["rig_time_s"] for p in plans])) if plans else 0.0,
+            "achieved": float(np.median([min(abs(x) for x in f["achieved_separation"].values()) for _, f in items
+                                         if f is not None and f.get("achieved_separation")]))
+            if any(f is not None and f.get("achieved_separation") for _, f in items) else None,
         }
     return out
 
 
 def print_table(t: dict[str, Any]) -> None:
-    print(f"{'kind':32s} {'cases':>5s} {'right':>11s} {'wrong':>9s} {'plans':>5s} {'S plan/check':>14s} {'rig h':>6s}")
+    print(f"{'kind':32s} {'cases':>5s} {'right':>11s} {'wrong':>9s} {'plans':>5s} {'S plan/check':>14s} "
+          f"{'achieved':>8s} {'rig h':>6s}")
     for key, r in t.items():
         sep = "" if r["separation_plan"] is None else f"{r['separation_plan']:.1f}/{r['separation_check']:.1f}"
         print(f"{key:32s} {r['cases']:5d} {r['right_before']:4d} -> {r['right_after']:3d} "
-              f"{r['wrong_before']:3d} -> {r['wrong_after']:2d} {r['plans']:5d} {sep:>14s} {r['rig_time_s'] / 3600:6.1f}")
+              f"{r['wrong_before']:3d} -> {r['wrong_after']:2d} {r['plans']:5d} {sep:>14s} "
+              f"{'' if r['achieved'] is None else format(r['achieved'], '.1f'):>8s} {r['rig_time_s'] / 3600:6.1f}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -177,7 +200,9 @@ def main(argv: list[str] | None = None) -> int:
             sep = disc.get("predicted_separation") or {}
             print(f"  {r['seed']} {r['label']:36s} {r['before']:6s} -> {r.get('after', ''):6s} "
                   f"plan {'yes' if disc.get('plan') else 'no ':3s} S {sep.get('plan') or 0:6.1f} "
-                  f"(check {sep.get('check') or 0:6.1f}) {(r.get('after_verdict') or {}).get('status', r.get('reason', ''))}",
+                  f"(check {sep.get('check') or 0:6.1f}) achieved {r.get('achieved_separation')} "
+                  f"{(r.get('after_verdict') or {}).get('status', r.get('reason', ''))} "
+                  f"{','.join((r.get('after_verdict') or {}).get('effects') or [])}",
                   flush=True)
     t = table(rows, all_rows)
     print()

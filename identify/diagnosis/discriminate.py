@@ -312,3 +312,24 @@ def noise_of(diagnosis) -> float | None:
         if s is not None and np.isfinite(s) and s > 0:
             return float(s)
     return None
+
+
+def achieved(rivals: list[Rival], base: PreisachModel, run: Run, sigma: float) -> dict[str, float]:
+    """The separation a measured ``run`` achieved between each pair of rivals ``"A|B"`` (noise levels):
+    ``sign * sqrt(|RSS_B - RSS_A|) / sigma``, ``RSS_X`` the residual sum of squares of rival ``X`` on the
+    run's measured points after re-fitting what it may re-fit there (as in :func:`separation`); positive
+    when ``A`` fits better.  When one rival is the truth its expectation is about the predicted
+    separation (``S^2 = E[RSS_other - RSS_true]`` up to the noise's degrees of freedom)."""
+    rows = np.flatnonzero(np.isfinite(run.outputs))
+    y = run.outputs[rows]
+    f0 = base.predict(run.inputs)
+    rss = {}
+    for r in rivals:
+        f = predict(r.models[0], run)
+        cols = _refit_columns(r, f0, f, run)[rows]
+        rss[r.name] = _unexplained(y - f[rows], cols) ** 2
+    out = {}
+    for a, b in combinations(rivals, 2):
+        d = rss[b.name] - rss[a.name]
+        out[f"{a.name}|{b.name}"] = float(np.sign(d) * np.sqrt(abs(d)) / sigma)
+    return out
