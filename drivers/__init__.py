@@ -5,8 +5,8 @@ Layers (one module, one job):
 * :mod:`~drivers.protocols` -- the small typed interfaces the sequencer uses
   (:class:`HeaterOutput`, :class:`DeflectionSensor`, :class:`Clock`);
 * :mod:`~drivers.channels` -- base classes that enforce the limits and retry
-  bad readings in the public methods; :mod:`~drivers.limits` -- the limits;
-  :mod:`~drivers.guard` -- Ctrl-C/SIGTERM guards;
+  bad readings in the public methods, their transactions held against
+  Ctrl-C (:mod:`interrupts`); :mod:`~drivers.limits` -- the limits;
 * :mod:`~drivers.clock` -- real and virtual clocks;
 * :mod:`~drivers.config` -- ``rig.toml`` (schema in :mod:`~drivers.configschema`);
 * :mod:`~drivers.modbus_registers` (register map and codec),

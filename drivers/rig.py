@@ -27,11 +27,12 @@ from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any
 
+from interrupts import delay_keyboard_interrupt
+
 from .backends import backend
 from .clock import make_clock
 from .config import RigConfig, default_config
 from .errors import DeviceError, DriverError, SafeStateError
-from .guard import delay_keyboard_interrupt
 from .instrument_lock import InstrumentLock
 from .protocols import Clock, DeflectionSensor, HeaterOutput, SafeState
 
