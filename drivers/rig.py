@@ -29,7 +29,6 @@ from typing import Any
 
 from interrupts import delay_keyboard_interrupt
 
-from .backends import backend
 from .clock import make_clock
 from .config import RigConfig, default_config
 from .errors import DeviceError, DriverError, SafeStateError
@@ -119,7 +118,7 @@ def open_rig(
     if clock is None and device is not None:
         clock = device.clock
     clk = clock if clock is not None else make_clock(cfg.clock_kind)
-    entry = backend(cfg.driver)
+    entry = cfg.backend
     address = entry.instrument_address(cfg)
     lock = InstrumentLock(address).acquire() if address is not None else None
     try:
