@@ -5,18 +5,20 @@ Layers (one module, one job):
 * :mod:`~drivers.protocols` -- the small typed interfaces the sequencer uses
   (:class:`HeaterOutput`, :class:`DeflectionSensor`, :class:`Clock`);
 * :mod:`~drivers.channels` -- base classes that enforce the limits and retry
-  bad readings in the public methods; :mod:`~drivers.limits` -- the limits;
-  :mod:`~drivers.guard` -- Ctrl-C/SIGTERM guards;
+  bad readings in the public methods, their transactions held against
+  Ctrl-C (:mod:`interrupts`); :mod:`~drivers.limits` -- the limits;
 * :mod:`~drivers.clock` -- real and virtual clocks;
-* :mod:`~drivers.config` -- ``rig.toml`` (schema in :mod:`~drivers.configschema`);
-* :mod:`~drivers.modbus_registers` (register map and codec),
-  :mod:`~drivers.modbus_errors`, :mod:`~drivers.modbus_backend` -- the
-  ``modbus`` driver; :mod:`~drivers.serial_backend` -- the ``serial`` driver;
-  :mod:`~drivers.retry` -- reconnection with back-off;
-* :mod:`~drivers.sim` -- the simulated VO2 device and its servers;
-* :mod:`~drivers.backends` -- the registry of backends (``driver = ...``);
-  :mod:`~drivers.setpoints` -- every rule a set-point passes, the window;
-  :mod:`~drivers.instrument_lock` -- one run per instrument;
+* :mod:`~drivers.retry` -- reconnection with back-off (and the keys every
+  link shares);
+* :mod:`~drivers.backends` -- what a backend is: the entry its package
+  declares; :mod:`~drivers.setpoints` -- every rule a set-point passes, the
+  window; :mod:`~drivers.instrument_lock` -- one run per instrument;
+* the backends, one package each, each declaring its ``rig.toml`` table and
+  its entry: :mod:`~drivers.sim` (the simulated VO2 device and its
+  servers), :mod:`~drivers.modbus`, :mod:`~drivers.serial`;
+* :mod:`~drivers.config` -- ``rig.toml``, assembled from ``[heater]``,
+  ``[sensor]`` (:mod:`~drivers.channel_config`) and the backends' tables
+  (schema in :mod:`~drivers.configschema`);
 * :mod:`~drivers.rig` -- :class:`Rig` and :func:`open_rig`;
   :mod:`~drivers.selftest` -- ``rig selftest``.
 """

@@ -1,13 +1,19 @@
-"""The driver backends, by the names ``rig.toml`` uses for ``driver``: one registry, one entry each.
+"""What a driver backend is: the entry each backend package declares, and what opening one returns.
 
-A backend is one module that provides three functions (imported only when
-a rig of that kind is opened, so that ``pymodbus`` or ``pyserial`` load
-only when needed):
+A backend is a package -- :mod:`drivers.sim`, :mod:`drivers.modbus`,
+:mod:`drivers.serial` -- that declares its ``rig.toml`` table (a dataclass
+of :func:`~drivers.configschema.setting` keys) and its :class:`Backend`
+entry, ``BACKEND``, in its ``__init__``; :mod:`drivers.config` assembles
+the entries into :class:`~drivers.config.RigConfig` and the ``driver``
+names.  The entry's implementation module provides three functions, each
+given the whole configuration (a :class:`~drivers.config.RigConfig`), and
+is imported only when a rig of that kind is used, so that ``pymodbus`` or
+``pyserial`` load only when needed:
 
 * ``open_backend(cfg, clock, device) -> OpenedBackend`` -- connect to the
-  instrument described by the backend's own ``rig.toml`` table and return
-  its heater and sensor (which implement :class:`~drivers.protocols.HeaterOutput`
-  and :class:`~drivers.protocols.DeflectionSensor`), the functions that close
+  instrument described by the backend's own table and return its heater
+  and sensor (which implement :class:`~drivers.protocols.HeaterOutput` and
+  :class:`~drivers.protocols.DeflectionSensor`), the functions that close
   its links, and a description recorded with every session;
 * ``setpoint_rules(cfg) -> SetpointRules`` -- every rule a set-point must
   pass as far as the configuration tells (the limits, what the wire makes
@@ -19,8 +25,8 @@ only when needed):
   one-run-per-instrument lock; None for an instrument no other process can
   reach (the in-process simulator).
 
-A new backend is its module, its table in :mod:`drivers.config`, and one
-:func:`register_backend` line below.
+A new backend is its package (its table, its entry, its implementation)
+and its entry in :data:`drivers.config.BACKENDS`.
 """
 
 from __future__ import annotations
@@ -32,7 +38,6 @@ from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .config import RigConfig
     from .protocols import Clock, DeflectionSensor, HeaterOutput
     from .setpoints import SetpointRules
 
@@ -49,49 +54,37 @@ class OpenedBackend:
 
 @dataclass(frozen=True)
 class Backend:
-    """A registry entry: the ``driver`` name, its ``rig.toml`` table, the module that implements it."""
+    """A backend's entry: the ``driver`` name, its ``rig.toml`` table and the dataclass declaring its keys
+    (``table_doc`` describes the table in the reference), the module that implements it, what it is.
+
+    ``simulated``: a simulation in this process -- its table is always there
+    with its defaults (``rig serve-sim`` serves it whatever the driver), and
+    it runs on a virtual clock unless ``clock = "real"``.
+    """
 
     name: str
     table: str
+    config: type
     module: str
     doc: str
+    table_doc: str
+    simulated: bool = False
 
     def load(self) -> ModuleType:
         return importlib.import_module(self.module)
 
-    def open(self, cfg: RigConfig, clock: Clock, device: Any = None) -> OpenedBackend:
+    def open(self, cfg: Any, clock: Clock, device: Any = None) -> OpenedBackend:
         return self.load().open_backend(cfg, clock, device)
 
-    def setpoint_rules(self, cfg: RigConfig) -> SetpointRules:
+    def setpoint_rules(self, cfg: Any) -> SetpointRules:
         return self.load().setpoint_rules(cfg)
 
-    def instrument_address(self, cfg: RigConfig) -> str | None:
+    def instrument_address(self, cfg: Any) -> str | None:
         return self.load().instrument_address(cfg)
 
 
-#: The backends by ``driver`` name.
-BACKENDS: dict[str, Backend] = {}
-
-
-def register_backend(backend: Backend) -> Backend:
-    """Make ``backend`` available as ``driver = "<name>"``."""
-    BACKENDS[backend.name] = backend
-    return backend
-
-
-def backend(name: str) -> Backend:
-    """The backend called ``name`` (the configuration has already checked that it exists)."""
-    return BACKENDS[name]
-
-
-def setpoint_rules(cfg: RigConfig) -> SetpointRules:
-    """The set-point rules of the rig ``cfg`` describes, as far as its configuration tells (an instrument
-    that reports its own full scale adds that once it is opened: see the heater's ``check_setpoint``)."""
-    return backend(cfg.driver).setpoint_rules(cfg)
-
-
-register_backend(Backend("sim", "sim", "drivers.sim.backend", "the simulated VO2 device, in process"))
-register_backend(Backend("modbus", "modbus", "drivers.modbus_backend",
-                         "a Modbus instrument: TCP, RTU over TCP, or RTU on a serial line (pymodbus)"))
-register_backend(Backend("serial", "serial", "drivers.serial_backend",
-                         "an instrument with a line protocol on a serial port (pyserial), SCPI-like by default"))
+def setpoint_rules(cfg: Any) -> SetpointRules:
+    """The set-point rules of the rig ``cfg`` (a :class:`~drivers.config.RigConfig`) describes, as far as its
+    configuration tells (an instrument that reports its own full scale adds that once it is opened: see the
+    heater's ``check_setpoint``)."""
+    return cfg.backend.setpoint_rules(cfg)

@@ -12,8 +12,9 @@ from __future__ import annotations
 import abc
 import math
 
+from interrupts import delay_keyboard_interrupt
+
 from .errors import ContinuityError, DriverError, LimitError, SensorError
-from .guard import delay_keyboard_interrupt
 from .limits import HeaterLimits
 from .protocols import Calibration, Reading, SafeState, VoltageWindow
 from .setpoints import SetpointRules, same_setpoint

@@ -3,7 +3,8 @@
 Only transactions that are safe to repeat are retried: reads, and writes of
 an absolute set-point (writing "1.25 V" twice leaves the heater at 1.25 V).
 Between attempts the link is closed and reopened after a wait that starts
-at ``backoff_s`` and doubles up to ``backoff_max_s``.
+at ``backoff_s`` and doubles up to ``backoff_max_s`` (:class:`LinkConfig`,
+the keys the Modbus and serial tables share).
 """
 
 from __future__ import annotations
@@ -13,9 +14,22 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TypeVar
 
+from .configschema import setting
 from .errors import ConnectionFailed, DriverError, DriverTimeout, ProtocolError
 
 T = TypeVar("T")
+
+
+@dataclass(frozen=True, kw_only=True)
+class LinkConfig:
+    """Timeouts and reconnection shared by the Modbus and serial links."""
+
+    timeout_s: float = setting("time to wait for a reply", default=1.0, unit="s", positive=True)
+    retries: int = setting(
+        "extra attempts after a timeout or a dropped link (reconnecting in between)", default=3, minimum=0, maximum=100
+    )
+    backoff_s: float = setting("wait before the first reconnection; doubles each time", default=0.1, unit="s", minimum=0.0)
+    backoff_max_s: float = setting("longest wait between reconnections", default=2.0, unit="s", minimum=0.0)
 
 
 class LinkDropped(Exception):

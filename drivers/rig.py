@@ -27,11 +27,11 @@ from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any
 
-from .backends import backend
+from interrupts import delay_keyboard_interrupt
+
 from .clock import make_clock
 from .config import RigConfig, default_config
 from .errors import DeviceError, DriverError, SafeStateError
-from .guard import delay_keyboard_interrupt
 from .instrument_lock import InstrumentLock
 from .protocols import Clock, DeflectionSensor, HeaterOutput, SafeState
 
@@ -118,7 +118,7 @@ def open_rig(
     if clock is None and device is not None:
         clock = device.clock
     clk = clock if clock is not None else make_clock(cfg.clock_kind)
-    entry = backend(cfg.driver)
+    entry = cfg.backend
     address = entry.instrument_address(cfg)
     lock = InstrumentLock(address).acquire() if address is not None else None
     try:

@@ -46,9 +46,10 @@ from typing import Any
 import h5py
 import numpy as np
 
+from interrupts import delay_keyboard_interrupt
+
 from .checksums import create_checked
 from .errors import DataFileError, StorageError
-from .guard import deferred_interrupt
 from .lock import WriterLock
 from .log import append_event
 from .models import ModelRecord, write_model_group
@@ -364,7 +365,7 @@ class SessionWriter:
                 r[name] = value
         with self._storage_errors(f"recording point {k}", row=k):
             self._check_file()
-            with deferred_interrupt():
+            with delay_keyboard_interrupt():
                 self._samples.resize((k + 1,))
                 self._samples[k : k + 1] = r
                 self._samples.flush()
@@ -387,7 +388,7 @@ class SessionWriter:
         rows["index"] = np.arange(k, k + n)
         rows["output"] = np.where(rows["measured"], rows["output"], np.nan)
         with self._storage_errors(f"recording points {k}..{k + n - 1}", row=k):
-            with deferred_interrupt():
+            with delay_keyboard_interrupt():
                 self._samples.resize((k + n,))
                 self._samples[k : k + n] = rows
                 self._samples.flush()
@@ -400,7 +401,7 @@ class SessionWriter:
         if status is not None:
             self._status = Status(status)
         with self._storage_errors(f"logging '{event}'"):
-            with deferred_interrupt():
+            with delay_keyboard_interrupt():
                 append_event(self._log, self._status, event, message, self._count)
             self._maybe_sync()
 

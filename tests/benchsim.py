@@ -6,7 +6,9 @@ import contextlib
 from collections.abc import Iterator
 
 from drivers.clock import RealClock
-from drivers.config import ModbusConfig, RigConfig, SerialConfig, loads_config
+from drivers.config import RigConfig, loads_config
+from drivers.modbus.config import ModbusConfig
+from drivers.serial.config import SerialConfig
 from drivers.sim import SimParams, SimVO2
 from drivers.sim.bench import SimBench
 

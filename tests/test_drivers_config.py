@@ -130,12 +130,12 @@ def test_serve_sim_listens_where_the_config_connects():
     from drivers.sim.bench import endpoints_from_config
 
     cfg = load_config(ROOT / "docs" / "rig.toml")
-    assert endpoints_from_config(cfg) == {"modbus": "127.0.0.1:5020", "serial": "socket://127.0.0.1:5021"}
+    assert endpoints_from_config(cfg.modbus, cfg.serial) == {"modbus": "127.0.0.1:5020", "serial": "socket://127.0.0.1:5021"}
     rtu = loads_config(MINIMAL + "[modbus]\ntransport = 'rtu'\nurl = 'socket://127.0.0.1:7000'\n"
                        "[modbus.setpoint]\naddress = 0\n[modbus.psd]\naddress = 0\n"
                        "[serial]\nurl = '/dev/ttyUSB0'\n")
-    assert endpoints_from_config(rtu) == {"modbus_rtu": "127.0.0.1:7000"}
-    assert endpoints_from_config(loads_config(MINIMAL)) == {}
+    assert endpoints_from_config(rtu.modbus, rtu.serial) == {"modbus_rtu": "127.0.0.1:7000"}
+    assert endpoints_from_config(None, None) == {}
 
 
 def test_a_missing_file_is_a_config_error(tmp_path):

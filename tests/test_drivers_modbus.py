@@ -16,16 +16,16 @@ import pytest
 
 from .benchsim import EXACT, config, modbus_toml, served
 from drivers import ConnectionFailed, DriverTimeout, LimitError, open_rig
-from drivers.config import ModbusConfig
-from drivers.modbus_backend import ModbusLink
-from drivers.modbus_errors import (
+from drivers.modbus.config import ModbusConfig
+from drivers.modbus.backend import ModbusLink
+from drivers.modbus.errors import (
     DeviceBusy,
     DeviceFailure,
     GatewayTargetFailed,
     IllegalDataAddress,
     IllegalDataValue,
 )
-from drivers.modbus_registers import InputPoint, RegisterPoint
+from drivers.modbus.registers import InputPoint, RegisterPoint
 from identify import damped_oscillation, random_input
 
 pytestmark = pytest.mark.timeout(60)

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from drivers import ConnectionFailed, DeviceError, DriverTimeout, LimitError, ProtocolError, open_rig
-from drivers.config import SerialConfig, loads_config
-from drivers.serial_backend import SerialLink
+from drivers.config import loads_config
+from drivers.serial.config import SerialConfig
+from drivers.serial.backend import SerialLink
 from drivers.sim.serial_server import IDENTITY
 from identify import random_input
 

@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 
 from drivers import open_rig
-from drivers.config import ModbusConfig
-from drivers.modbus_registers import InputPoint, RegisterPoint
+from drivers.modbus.config import ModbusConfig
+from drivers.modbus.registers import InputPoint, RegisterPoint
 
 from .benchsim import EXACT, FAST_LINK, HEADER, config, served
 from .faultkit import FAST_SIM, SimServer

@@ -7,8 +7,8 @@ import math
 import pytest
 
 from drivers import CodecError
-from drivers.modbus_errors import DeviceBusy, IllegalDataAddress, ModbusExceptionResponse, exception_response
-from drivers.modbus_registers import InputPoint, RegisterPoint, overlap
+from drivers.modbus.errors import DeviceBusy, IllegalDataAddress, ModbusExceptionResponse, exception_response
+from drivers.modbus.registers import InputPoint, RegisterPoint, overlap
 
 
 def point(**kw):

@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drivers.config import ModbusConfig
-from drivers.modbus_registers import InputPoint, RegisterPoint
+from drivers.modbus.config import ModbusConfig
+from drivers.modbus.registers import InputPoint, RegisterPoint
 from sessions import Status, read_session
 
 from .benchsim import EXACT, modbus_toml, served

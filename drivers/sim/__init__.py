@@ -1,5 +1,7 @@
 """The simulated VO2 microactuator: a first-class backend, in process or served over real protocols.
 
+Its entry, ``BACKEND``, is the ``sim`` driver of ``rig.toml``.
+
 * :mod:`~drivers.sim.params` -- physical parameters (the ``[sim]`` table);
 * :mod:`~drivers.sim.transition` -- the phase-transition Preisach density;
 * :mod:`~drivers.sim.device` -- :class:`SimVO2`, the physics and its state;
@@ -13,13 +15,18 @@
   line-protocol server (``rig serve-sim``).
 """
 
+from ..backends import Backend
 from . import builtin_effects  # noqa: F401  (registers the built-in effects)
 from .device import DeviceRefused, SimState, SimVO2
 from .effects import EFFECTS, Effect, Moment, register_effect
 from .faults import FaultPlan
 from .params import SimParams
 
+BACKEND = Backend("sim", "sim", SimParams, "drivers.sim.backend", "the simulated VO2 device, in process",
+                  "[sim] the simulated device (driver = 'sim' and rig serve-sim)", simulated=True)
+
 __all__ = [
+    "BACKEND",
     "EFFECTS",
     "DeviceRefused",
     "Effect",

@@ -7,7 +7,7 @@ device served over Modbus or a serial line is :mod:`drivers.sim.bench`.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any
 
 from ..backends import OpenedBackend
 from ..channels import GuardedHeater, PSDSensor
@@ -15,9 +15,6 @@ from ..limits import HeaterLimits
 from ..protocols import Calibration, Clock
 from ..setpoints import SetpointRules
 from .device import SimVO2
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..config import RigConfig
 
 
 class SimHeater(GuardedHeater):
@@ -48,7 +45,7 @@ class SimSensor(PSDSensor):
 
 
 # ---------------------------------------------------------------- the backend (see drivers.backends)
-def open_backend(cfg: RigConfig, clock: Clock, device: SimVO2 | None = None) -> OpenedBackend:
+def open_backend(cfg: Any, clock: Clock, device: SimVO2 | None = None) -> OpenedBackend:
     """The ``sim`` driver: the device of ``[sim]`` (or ``device``) on ``clock``; no link to open."""
     if device is None:
         device = SimVO2(cfg.sim, clock)
@@ -59,10 +56,10 @@ def open_backend(cfg: RigConfig, clock: Clock, device: SimVO2 | None = None) -> 
                                               "time_constant_s": cfg.sim.time_constant_s})
 
 
-def setpoint_rules(cfg: RigConfig) -> SetpointRules:
+def setpoint_rules(cfg: Any) -> SetpointRules:
     fs = cfg.sim.max_output_V if cfg.heater.full_scale_V is None else min(cfg.heater.full_scale_V, cfg.sim.max_output_V)
     return SetpointRules(cfg.heater.limits(), None, fs)
 
 
-def instrument_address(cfg: RigConfig) -> str | None:
+def instrument_address(cfg: Any) -> str | None:
     return None  # each process has its own simulated device

@@ -24,9 +24,10 @@ from typing import Any
 
 from pymodbus import FramerType
 
-from ..config import ModbusConfig, RigConfig, SerialConfig
 from ..errors import ConfigError, ServeError
+from ..modbus.config import ModbusConfig
 from ..net import is_loopback
+from ..serial.config import SerialConfig
 from .device import SimVO2
 from .faults import FaultPlan
 from .journal import Journal
@@ -54,24 +55,25 @@ def parse_host_port(text: str, what: str, allow_remote: bool = False) -> tuple[s
     return host, port
 
 
-def endpoints_from_config(cfg: RigConfig) -> dict[str, str]:
-    """Where ``rig serve-sim --config`` listens when given no endpoint: where the config's client connects.
+def endpoints_from_config(modbus: ModbusConfig | None, serial: SerialConfig | None) -> dict[str, str]:
+    """Where ``rig serve-sim --config`` listens when given no endpoint: where the client of the config's
+    ``[modbus]`` and ``[serial]`` tables connects.
 
     ``{"modbus": "HOST:PORT"}`` for Modbus TCP, ``{"modbus_rtu": ...}`` for
     RTU over TCP (or RTU on a ``socket://`` URL), ``{"serial": "socket://..."}``
     for a serial line on a ``socket://`` URL; device paths are not served.
     """
     out: dict[str, str] = {}
-    if cfg.modbus is not None:
-        m = cfg.modbus
+    if modbus is not None:
+        m = modbus
         if m.transport == "tcp":
             out["modbus"] = f"{m.host}:{m.port}"
         elif m.transport == "rtu-over-tcp":
             out["modbus_rtu"] = f"{m.host}:{m.port}"
         elif m.url and m.url.startswith("socket://"):
             out["modbus_rtu"] = m.url.removeprefix("socket://")
-    if cfg.serial is not None and cfg.serial.url.startswith("socket://"):
-        out["serial"] = cfg.serial.url
+    if serial is not None and serial.url.startswith("socket://"):
+        out["serial"] = serial.url
     return out
 
 

@@ -29,10 +29,10 @@ from pymodbus.constants import ExcCodes
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from ..config import ModbusConfig
 from ..errors import CodecError
-from ..modbus_registers import INTEGER_RANGES, RegisterPoint
-from ..modbus_errors import quiet_pymodbus
+from ..modbus.config import ModbusConfig
+from ..modbus.errors import quiet_pymodbus
+from ..modbus.registers import INTEGER_RANGES, RegisterPoint
 from .device import DeviceRefused, SimVO2
 from .faults import FaultPlan
 from .journal import Journal

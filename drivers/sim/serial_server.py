@@ -24,7 +24,7 @@ import os
 import tty
 from collections import deque
 
-from ..config import SerialCommands, parse_leading_number
+from ..serial.config import SerialCommands, parse_leading_number
 from .device import DeviceRefused, SimVO2
 from .faults import FaultPlan
 from .journal import Journal

@@ -6,9 +6,9 @@ next safe point -- before applying a set-point, or between two slices of a
 dwell -- holds the heater at the current set-point, logs ``paused`` and
 asks its ``on_pause`` callback whether to resume or abort.  A Ctrl-C while
 a pause is pending or being decided, or a SIGTERM, raises
-:class:`KeyboardInterrupt` at once: the run is aborted (the guards around
-instrument transactions and session appends still let those finish first,
-see :mod:`drivers.guard` and :mod:`sessions.guard`).  It is raised once:
+:class:`KeyboardInterrupt` at once: the run is aborted (the guard around
+instrument transactions and session appends still lets those finish first,
+see :mod:`interrupts`).  It is raised once:
 every later signal is ignored while the program goes to the safe state.
 
 :class:`Aborted` is how a decided abort travels: a :class:`KeyboardInterrupt`,

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from drivers.config import load_config
-from drivers.guard import terminate_as_interrupt
+from interrupts import terminate_as_interrupt
 from drivers.selftest import selftest as run_selftest
 
 from ..errors import EXIT_RIG_FAULT

@@ -48,7 +48,7 @@ def serve_sim(modbus_at, modbus_rtu_at, serial_at, config_path, seed, allow_remo
 
         params = replace(params, seed=seed)
     if not (modbus_at or modbus_rtu_at or serial_at):
-        derived = endpoints_from_config(cfg) if config_path else {}
+        derived = endpoints_from_config(cfg.modbus, cfg.serial) if config_path else {}
         modbus_at = derived.get("modbus")
         modbus_rtu_at = derived.get("modbus_rtu")
         serial_at = derived.get("serial")

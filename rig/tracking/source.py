@@ -59,7 +59,7 @@ class ModelSource:
 
 def load_source(path: Path, name: str | None) -> ModelSource:
     """The model in ``path``: a session (``name`` as ``rig validate`` takes it) or a model JSON file."""
-    from ..commands.predict import load_model
+    from ..model_file import load_model
     from ..session_input import choose_model
 
     path = Path(path)

@@ -22,18 +22,19 @@ import math
 import socket
 import time
 from collections.abc import Callable
+from typing import Any
 
 import serial
 
-from .backends import OpenedBackend
-from .channels import GuardedHeater, PSDSensor
-from .config import RigConfig, SerialCommands, SerialConfig
-from .errors import DeviceError, DriverError, SetpointRefused
-from .instrument_lock import serial_port_name
-from .limits import HeaterLimits
-from .protocols import Calibration, Clock
-from .setpoints import SetpointRules
-from .retry import Backoff, BadReply, LinkDropped, NoReply, with_retries
+from ..backends import OpenedBackend
+from ..channels import GuardedHeater, PSDSensor
+from ..errors import DeviceError, DriverError, SetpointRefused
+from ..instrument_lock import serial_port_name
+from ..limits import HeaterLimits
+from ..protocols import Calibration, Clock
+from ..retry import Backoff, BadReply, LinkDropped, NoReply, with_retries
+from ..setpoints import SetpointRules
+from .config import SerialCommands, SerialConfig
 
 
 class SerialLink:
@@ -220,7 +221,7 @@ class SerialPSD(PSDSensor):
 
 
 # ---------------------------------------------------------------- the backend (see drivers.backends)
-def open_backend(cfg: RigConfig, clock: Clock, device: object = None) -> OpenedBackend:
+def open_backend(cfg: Any, clock: Clock, device: object = None) -> OpenedBackend:
     """The ``serial`` driver: open the port of ``[serial]`` (with the configured retries) and ask who it is."""
     sc = cfg.serial
     assert sc is not None
@@ -236,12 +237,12 @@ def open_backend(cfg: RigConfig, clock: Clock, device: object = None) -> OpenedB
     return OpenedBackend(heater, sensor, [link.close], {"endpoint": link.endpoint, "identity": identity})
 
 
-def setpoint_rules(cfg: RigConfig) -> SetpointRules:
+def setpoint_rules(cfg: Any) -> SetpointRules:
     assert cfg.serial is not None
     commands = cfg.serial.commands
     return SetpointRules(cfg.heater.limits(), lambda volts: _printed(commands, volts), cfg.heater.full_scale_V)
 
 
-def instrument_address(cfg: RigConfig) -> str | None:
+def instrument_address(cfg: Any) -> str | None:
     assert cfg.serial is not None
     return f"serial {serial_port_name(cfg.serial.url)}"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 
-from .errors import DeviceError, SetpointRefused
+from ..errors import DeviceError, SetpointRefused
 
 
 def quiet_pymodbus() -> None:

@@ -24,8 +24,8 @@ import math
 import struct
 from dataclasses import dataclass
 
-from .configschema import setting
-from .errors import CodecError
+from ..configschema import setting
+from ..errors import CodecError
 
 #: struct code and register count of each data type.
 DATA_TYPES: dict[str, tuple[str, int]] = {
