@@ -169,7 +169,9 @@ class History:
         code = branches(v).copy()
         code[first_after] = AFTER_REVERSAL
         # a repeated set-point is where the point before it was: it keeps that point's branch
-        branch = np.where(carry >= 0, code[moved[np.maximum(carry, 0)]], code).astype(np.int8)
+        # (a run that never leaves its initial input has no move to carry)
+        carried = code[moved[np.maximum(carry, 0)]] if moved.size else code
+        branch = np.where(carry >= 0, carried, code).astype(np.int8)
         # time since the last turn that happened before each point's readings
         last_turn = np.searchsorted(first_after, np.arange(n), side="right") - 1
         start = run.setpoint_t[0]

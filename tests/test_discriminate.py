@@ -71,6 +71,13 @@ def test_a_nuisance_that_spans_the_difference_absorbs_it():
     assert s == pytest.approx(0.0, abs=1e-9)
 
 
+def test_a_run_that_never_leaves_its_initial_input_has_a_history():
+    """A plan's first hold may stay at the saturation it starts from: nothing moves, no reversal."""
+    run = probe(np.zeros(4), np.full(4, 30.0), initial_V=0.0)
+    h = run.history
+    assert h.branch.shape == (4,) and h.reversal_index.size == 0 and np.all(h.last_step_V == 0)
+
+
 def test_the_design_keeps_the_limits_and_reports_its_own_separation():
     base = _base()
     rivals = [Rival("a", (_moved(base, 1, 0.05),)), Rival("b", (_moved(base, 7, -0.04),))]
