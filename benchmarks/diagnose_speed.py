@@ -7,7 +7,7 @@ Cases (the figures the evidence-bound diagnosis and the discriminating run are h
 * ``diagnose L=30 + 360``: ``rig diagnose`` on an L = 30 damped oscillation
   (467 points, 20 s dwells) and a 360-point check run recorded on the
   simulated bench with a creep on (``rig.diagnosis.simulate``); target 10 s;
-* ``discriminate``: the same with ``--with creep,baseline_drift
+* ``discriminate``: the same with ``--with thermal_lag,joule_power
   --discriminate`` (two rivals, the plan designed on top of the diagnosis);
   the design's own wall time is read from the JSON (``design_s``); target
   20 s for the design;
@@ -59,6 +59,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--skip-forc", action="store_true")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--case", type=Path, metavar="DIR",
+                    help="time the discriminating design on DIR/fit.h5 and DIR/check.h5 (a case kept by "
+                         "python -m benchmarks.blind.run --keep) instead of the simulated bench's runs")
     args = ap.parse_args(argv)
     from rig.diagnosis.simulate import SimulatedBench, simulate
 
@@ -66,7 +69,9 @@ def main(argv: list[str] | None = None) -> int:
     fit, check = simulate(SimulatedBench("creep", 0.1, seed=3, levels=30, check_points=360), work)
     cases = {
         "diagnose L=30 + 360": (["diagnose", "--fit", str(fit), "--check", str(check), "--json"], 10.0),
-        "discriminate": (["diagnose", "--fit", str(fit), "--check", str(check), "--with", "creep,baseline_drift",
+        "discriminate": (["diagnose", "--fit", str(args.case / "fit.h5" if args.case else fit), "--check",
+                          str(args.case / "check.h5" if args.case else check),
+                          *([] if args.case else ["--with", "thermal_lag,joule_power"]),
                           "--json", "--discriminate", str(work / "plan.csv"), "--force"], None),
     }
     if not args.skip_forc and FORC.exists():
@@ -95,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     disc = json.loads(out.getvalue())["discriminate"]
     rows["design"] = {"design_s": disc.get("design_s"), "points": disc.get("points"), "target_s": 20.0}
     print(f"{'design (in the warm run)':36s} {disc.get('design_s')} s, {disc.get('points')} points, "
-          f"separation {disc.get('predicted_separation')}   target 20 s")
+          f"separation {disc.get('predicted_separation')}   target 20 s"
+          + ("" if disc.get("plan") else f"   (no plan: {disc.get('reason')})"))
     print(f"load average after: {os.getloadavg()[0]:.2f}")
     if args.json:
         print(json.dumps(rows, indent=1))
