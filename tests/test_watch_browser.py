@@ -75,7 +75,9 @@ def test_a_live_run_seen_in_the_browser_as_it_is_written(tmp_path, browser):
                               what="the model fitted on the whole run")
             assert model.startswith("smooth_nn, L = 6, fitted on 23 measured points")
             assert "model" in svg_texts(browser, "loop")  # the model's path is in the loop's legend
-            assert any(t.startswith("residual") for t in svg_texts(browser, "model"))
+            # the model's figure is drawn after its text: wait for it (bounded) rather than race it
+            wait_page(browser, lambda d: any(t.startswith("residual") for t in svg_texts(d, "model")),
+                      what="the model's residual figure")
             browser.save_screenshot(str(tmp_path / "live.png"))
             time.sleep(0.6)  # more polls of the finished file, with the page open
         assert digest(path) == written  # watching never wrote a byte
