@@ -24,21 +24,11 @@ import pytest
 from sessions import Status, read_session
 
 from .acquirekit import FAST_DEVICE, bench_config
-from .benchsim import served
+from .benchsim import HEADER, served
 from .cli import assert_one_line_error, error_lines, rig_command, rig_here
 from .conftest import digest
 
-SIM = """driver = "sim"
-[heater]
-max_V = 6.0
-max_current_mA = 12.78
-series_resistance_ohm = 682.5
-heater_resistance_ohm = 100.0
-[sensor]
-um_per_V = 5.0
-[sim.effects.creep]
-strength = 0.2
-"""
+SIM = HEADER.format(driver="sim") + "[sim.effects.creep]\nstrength = 0.2\n"
 
 #: Two candidates that each close part of the gap the creep leaves: the verdict is not clear.
 UNCLEAR = ("--with", "reversible,joule_power")
