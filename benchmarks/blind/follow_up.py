@@ -38,11 +38,8 @@ from typing import Any
 import numpy as np
 
 from .base import draw_device
-from .run import READINGS, _rig, _worker_init, _write_trace, generator, schedules, simulate
+from .run import READINGS, _rig, _worker_init, generator, import_run, schedules, simulate
 from .scoring import classify
-
-FAMILIES = ("thermal_lag", "creep", "baseline_drift", "ambient_drift", "joule_power", "sensor_nonlinearity",
-            "reversible", "interaction", "first_point", "gain_drift")
 
 
 def needs_follow_up(row: dict[str, Any]) -> bool:
@@ -59,16 +56,6 @@ def prefix_stable(gen, device, sched, effects, seed: int, label: str) -> bool:
     return all(np.allclose(a["y_um"], b["y_um"]) for a, b in zip(two, three[:2]))
 
 
-def _import(device, run: dict[str, Any], csv: Path, h5: Path) -> Path:
-    with_dwell = _write_trace(csv, run)
-    args = ["import", str(csv), "--out", str(h5), "--levels", str(device.levels), "--v-min", repr(device.v_min_V),
-            "--v-max", repr(device.v_max_V), "--force"]
-    code, _, err = _rig(*args, *([] if with_dwell else ["--dwell-from-time"]))
-    if code != 0:
-        raise RuntimeError(f"rig import {csv.name}: {err.strip()}")
-    return h5
-
-
 def _verdict(js: dict[str, Any]) -> dict[str, Any]:
     v = js["verdict"]
     return {"status": v["status"], "effects": v.get("effects") or [], "rivals": v.get("rivals") or [],
@@ -80,13 +67,13 @@ def achieved_separation(fit: Path, check: Path, plan: Path, between: list[str]) 
     the first diagnosis is run again in this process (as ``rig diagnose`` does) for its fitted rivals."""
     from identify.diagnosis import DiagnosisSettings, diagnose
     from identify.diagnosis.discriminate import achieved, noise_of, rival_of
-    from rig.diagnosis.discriminate import _check_run
+    from rig.diagnosis.discriminate import reference_check
     from rig.diagnosis.loading import load_runs
 
     loaded = load_runs([fit], [check])
     d = diagnose(loaded.fit, loaded.check, loaded.grid, DiagnosisSettings(),
                  monitors=[np.asarray(m.output, dtype=float) for m in loaded.unique_monitors()])
-    reference = _check_run(d, list(loaded.check))
+    reference = reference_check(list(loaded.check))
     rivals = [rival_of(d, n, reference) for n in between]
     run = load_runs([fit], [plan]).check[0]
     return achieved(rivals, d.base.model, run, noise_of(d))
@@ -119,7 +106,7 @@ def follow_up(row: dict[str, Any], keep: Path) -> dict[str, Any]:
     effects = [(c["family"], c["form"], c["strength"]) for c in row.get("calibrations", [])]
     out["prefix_stable"] = prefix_stable(gen, device, sched, effects, seed, row["label"])
     runs = simulate(gen, device, sched3, effects, seed, row["label"], True)
-    paths = [_import(device, r, d / f"{name}3.csv", d / f"{name}3.h5") for name, r in zip(("fit", "check", "plan"), runs)]
+    paths = [import_run(device, r, d / f"{name}3.csv", d / f"{name}3.h5", "--force") for name, r in zip(("fit", "check", "plan"), runs)]
     out["achieved_separation"] = achieved_separation(d / "fit.h5", d / "check.h5", paths[2], disc["between"])
     code, stdout, err = _rig("diagnose", "--fit", str(paths[0]), "--check", str(paths[1]), str(paths[2]), "--json")
     if code != 0:

@@ -183,18 +183,22 @@ def _rig(*args: str) -> tuple[int, str, str]:
     return res.exit_code, res.stdout, err
 
 
+def import_run(device: BaseDevice, run: dict[str, Any], csv: Path, h5: Path, *extra: str) -> Path:
+    """Write ``run`` as its lab's logger does (``csv``) and bring it in with ``rig import`` (``h5``);
+    ``extra``: more ``rig import`` options (``--force``)."""
+    with_dwell = _write_trace(csv, run)
+    args = ["import", str(csv), "--out", str(h5), "--levels", str(device.levels), "--v-min",
+            repr(device.v_min_V), "--v-max", repr(device.v_max_V), *extra]
+    code, _, err = _rig(*args, *([] if with_dwell else ["--dwell-from-time"]))
+    if code != 0:
+        raise RuntimeError(f"rig import {csv.stem}: {err.strip()}")
+    return h5
+
+
 def _sessions(device: BaseDevice, runs: list[dict], directory: Path) -> tuple[Path, Path]:
-    paths = []
-    for name, run in zip(("fit", "check"), runs):
-        csv, h5 = directory / f"{name}.csv", directory / f"{name}.h5"
-        with_dwell = _write_trace(csv, run)
-        args = ["import", str(csv), "--out", str(h5), "--levels", str(device.levels), "--v-min",
-                repr(device.v_min_V), "--v-max", repr(device.v_max_V)]
-        code, _, err = _rig(*args, *([] if with_dwell else ["--dwell-from-time"]))
-        if code != 0:
-            raise RuntimeError(f"rig import {name}: {err.strip()}")
-        paths.append(h5)
-    return paths[0], paths[1]
+    fit, check = (import_run(device, run, directory / f"{name}.csv", directory / f"{name}.h5")
+                  for name, run in zip(("fit", "check"), runs))
+    return fit, check
 
 
 def run_case(case: dict[str, Any], level: float, keep: Path | None) -> dict[str, Any]:

@@ -121,7 +121,7 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     if session is not None and follow_up["plan"] is not None:
         obj["discriminate"] = follow_up
         _acquire_plan(Path(follow_up["plan"]), session, rig_config, loaded.grid,
-                      readings_for(result, list(loaded.check)), follow_up, obj if as_json else None)
+                      readings_for(list(loaded.check)), follow_up, obj if as_json else None)
         again = load_runs(list(fit_paths), checks, loaded.grid.levels, loaded.grid.v_min, loaded.grid.v_max,
                           allow_partial=partial, fit_curves=fit_curves, check_curves=check_curves, stride=stride,
                           extra_checks=[session])

@@ -72,7 +72,7 @@ def checked_request(path: Path | None, points: int | None, rig_time_s: float | N
     return PlanRequest(path, DEFAULT_POINTS if points is None else points, rig_time_s, force)
 
 
-def _check_run(d: Diagnosis, checks: list[Run]) -> Run:
+def reference_check(checks: list[Run]) -> Run:
     """The check run a plan is compared with and its drifts are carried from: the longest in rig time."""
     return max(checks, key=lambda r: (float(np.sum(r.dwell_s)) if r.dwell_s is not None else 0.0, r.n))
 
@@ -110,7 +110,7 @@ def discriminate(d: Diagnosis, checks: list[Run], asked: PlanRequest, seed: int 
     if sigma is None:
         out["reason"] = f"{want.reason}, but no noise level is known to count a separation in"
         return out
-    check = _check_run(d, checks)
+    check = reference_check(checks)
     lo, hi = d.grid.v_min, d.grid.v_max
     budget = asked.rig_time_s
     if budget is None and check.dwell_s is not None:
@@ -172,9 +172,9 @@ def checked_session(asked: PlanRequest | None, config_path: Path | None) -> Path
     return session
 
 
-def readings_for(d: Diagnosis, checks: list[Run]) -> int | None:
+def readings_for(checks: list[Run]) -> int | None:
     """The readings averaged per point of the check run the plan was compared with (None: not known)."""
-    return _check_run(d, checks).readings
+    return reference_check(checks).readings
 
 
 def verdict_summary(verdict: dict[str, Any]) -> str:
