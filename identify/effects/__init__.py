@@ -50,7 +50,7 @@ EFFECTS: dict[str, type[Effect]] = {
                 Reversible, Interaction, FirstPoint)
 }
 #: Options an effect accepts after a colon on the command line.
-OPTIONS: dict[str, tuple[str, ...]] = {"reversible": ("monotone",)}
+OPTIONS: dict[str, tuple[str, ...]] = {"reversible": ("monotone",), "thermal_lag": ("dominant",)}
 #: Order of the input stage (what the memory curve sees is transformed in this order).
 INPUT_ORDER = ("thermal_lag", "ambient_drift", "interaction")
 

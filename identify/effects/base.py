@@ -239,6 +239,13 @@ class Effect(ABC):
         that only the diagnosis's cross-validation can choose are left out."""
         return self.settings_grid()
 
+    def scan(self, score: Callable[["Effect"], float]) -> "Effect | None":
+        """(input effects) A fitted instance to start the joint fit from instead of no effect, found by
+        ``score`` (the residual sum of squares, um^2, of the linear terms solved with a candidate held
+        fixed); None (the default): start from no effect.  For effects too nonlinear for Gauss--Newton
+        steps from zero (a lag as long as the dwells)."""
+        return None
+
     def with_setting(self, setting: dict[str, float], ctx: Context | None = None) -> "Effect":
         """(input effects) This effect at ``setting`` with its coefficients kept (an unfitted one may start
         from a value the setting gives, scaled by ``ctx``): the point the joint fit linearises at when it

@@ -452,8 +452,9 @@ def fit_with_effects(
         base_model, _ = fitter.solve(zero.ctx, (), ())
         base = fitter.state(base_model, ())
     start = base or zero
-    cur = _State(start.model, tuple(fitter.effects), start.rss, start.ctx, {})
+    _scan_starts(fitter, start)
     chosen = [e.fit_settings_grid()[0] for e in fitter.effects]
+    cur = _State(start.model, tuple(fitter.effects), start.rss, start.ctx, {})
     cur = fitter.converge(cur, tuple(chosen))
     if fitter.effects:
         for k, e in enumerate(fitter.effects):
@@ -481,6 +482,24 @@ def fit_with_effects(
         settings={e.name: s for e, s in zip(fitter.effects, chosen)},
         info={**fitter.last_info, "solves": fitter.solves},
     )
+
+
+def _scan_starts(fitter: _Fitter, start: _State) -> None:
+    """Effects that scan for their own start (:meth:`Effect.scan`): each candidate is scored by the residual
+    of the linear terms solved with it held fixed (the other effects absent); a start that beats ``start``'s
+    residual replaces the unfitted effect, and its own settings grid is then that start's alone."""
+    for k, e in enumerate(fitter.effects):
+        if e.stage != INPUT:
+            continue
+
+        def score(candidate: Effect) -> float:
+            st = fitter.state(start.model, (candidate,))
+            model, fitted = fitter.solve(st.ctx, (candidate,), ({},), frozen=True)
+            return fitter.state(model, fitted).rss
+
+        found = e.scan(score)
+        if found is not None and score(found) < start.rss:
+            fitter.effects[k] = found
 
 
 def _search(fitter: _Fitter, cur: _State, chosen: list[dict], k: int, grid_k: list[dict]) -> tuple[_State, dict]:

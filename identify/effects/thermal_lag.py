@@ -21,6 +21,16 @@ temperature).  An unknown dwell counts as fully settled.  Parameters:
 projected Gauss--Newton steps on their secants: non-negative least squares
 of the linearised problem).
 
+Option ``dominant`` (``--with thermal_lag:dominant``): the whole rise is
+slow -- dwells as short as the time constant or shorter, as a plan within a
+rig-time budget makes them (``rig acquire --rig-time``).  Gauss--Newton
+steps from no lag cannot reach a lag that large, so the fit first scans the
+dominant time constant: the whole rise in one mode, each drive, on a
+log-spaced scan of :data:`SCAN_S` refined by Brent's method, each candidate
+scored by the residual of the density solved with it; then it starts from
+that mode and its neighbours a factor :data:`NEIGHBOUR_RATIO` faster and
+slower (fractions 0, 1, 0), and the usual steps shape the spectrum.
+
 Identifiable only from a run whose dwells differ: with one dwell ``d`` a
 mode enters only as ``f exp(-d / tau)``, so time constants and sizes
 cannot be told apart -- and a model that cannot tell them apart cannot
@@ -29,6 +39,7 @@ predict a run with other dwells.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -48,6 +59,14 @@ MAX_FRACTION = 1.0
 STEP = 0.05
 #: Relative spread below which two dwells count as the same.
 SAME_DWELL = 1e-6
+#: ``dominant``: the time constants (s) the scan tries before refining the best.
+SCAN_S = tuple(float(x) for x in np.geomspace(0.1, 100.0, 13))
+#: ``dominant``: the start's neighbour modes are this factor faster and slower than the scanned one.
+NEIGHBOUR_RATIO = 3.0
+#: ``dominant``: Brent's tolerance on log(time constant).
+SCAN_TOL = 0.01
+#: Option (``thermal_lag:dominant``).
+OPTIONS = ("dominant",)
 
 
 def _drive(v: np.ndarray, drive: str) -> np.ndarray:
@@ -107,6 +126,38 @@ class ThermalLag(Effect):
     drives_thermal_term = True
     absolute = True
 
+    def __init__(self, params: dict[str, Any] | None = None, *, dominant: bool = False) -> None:
+        super().__init__(params)
+        self.dominant = bool(dominant)
+
+    def scan(self, score):
+        """(``dominant``) The start of the fit: see the module docstring; None without the option."""
+        if not self.dominant or self.fitted:
+            return None
+        from scipy.optimize import minimize_scalar
+
+        best: tuple[float, str, float] | None = None
+        for drive in ("power", "voltage"):
+            cache: dict[float, float] = {}
+
+            def rss(log_tau: float, drive: str = drive) -> float:
+                if log_tau not in cache:
+                    cache[log_tau] = score(ThermalLag({"drive": drive, "time_constants_s": [math.exp(log_tau)],
+                                                       "fractions": [1.0]}))
+                return cache[log_tau]
+
+            logs = [math.log(t) for t in SCAN_S]
+            values = [rss(g) for g in logs]
+            i = int(np.argmin(values))
+            lo, hi = logs[max(i - 1, 0)], logs[min(i + 1, len(logs) - 1)]
+            minimize_scalar(rss, bounds=(lo, hi), method="bounded", options={"xatol": SCAN_TOL})
+            g = min(cache, key=cache.get)
+            if best is None or cache[g] < best[0]:
+                best = (cache[g], drive, math.exp(g))
+        _, drive, tau = best
+        return ThermalLag({"drive": drive, "time_constants_s": [tau / NEIGHBOUR_RATIO, tau, tau * NEIGHBOUR_RATIO],
+                           "fractions": [0.0, 1.0, 0.0]})
+
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         if "time_constant_s" in params:  # one mode, as written by hand
             params = {"drive": params.get("drive", "power"), "time_constants_s": [params["time_constant_s"]],
@@ -142,6 +193,11 @@ class ThermalLag(Effect):
 
     def settings_grid(self) -> list[dict[str, float]]:
         return [{"drive": d} for d in DRIVES]
+
+    def fit_settings_grid(self) -> list[dict[str, float]]:
+        if self.fitted:  # a start found by the scan (``dominant``): its own drive
+            return [{"drive": self.params["drive"]}]
+        return self.settings_grid()
 
     def _state(self, setting: dict[str, float]) -> tuple[str, np.ndarray, np.ndarray]:
         if self.fitted:
