@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import click
@@ -27,8 +29,9 @@ from rig.acquisition import (
     summarise,
 )
 from rig.acquisition.recipe import default_recipe, given_recipe
+from rig.acquisition.timed import CONTRADICTING, check_options, describe, timed_plan
 from rig.acquisition.runner import resumable
-from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS
+from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS, default_grid
 from sessions import DataFileError, read_session
 
 from ..budget.acquisition import announce, planned_points, too_many_points
@@ -39,7 +42,16 @@ from ..run_driver import config_for_resume, drive
 
 #: Options that describe a new run; a resumed run takes all of them from its session.
 PLAN_OPTIONS = ("sequence", "levels", "v_min", "v_max", "thermal_term", "points", "seed", "dwell", "dwells",
-                "settle", "poll", "transit", "readings", "measure", "out", "operator", "notes", "identify_with")
+                "settle", "poll", "transit", "readings", "measure", "out", "operator", "notes", "identify_with",
+                "rig_time")
+
+
+@dataclass(frozen=True)
+class TimedRequest:
+    """``--rig-time S`` (``budget_s``, s) and ``--readings`` when given (else the plan chooses)."""
+
+    budget_s: float
+    readings: int | None = None
 
 
 def _settings(dwell: float, settle: float | None, poll: float, transit: float, readings: int,
@@ -132,6 +144,10 @@ def describe_recipe(r: dict) -> str:
 @click.option("--out", "-o", type=click.Path(dir_okay=False, path_type=Path), help="Session file to create (HDF5).")
 @click.option("--resume", "resume_path", type=click.Path(dir_okay=False, path_type=Path),
               help="Continue this interrupted session instead (its plan and settings).")
+@click.option("--rig-time", type=float, metavar="S",
+              help="Plan the damped oscillation within S seconds of rig time: the dwells, readings and whether "
+                   "to model the thermal transient instead of waiting it out, chosen for the least expected "
+                   "error on a held-out run; the session records the recipe rig identify then uses.")
 @click.option("--identify-with", metavar="METHOD[:EFFECT,...]",
               help="Record in the session that it is to be identified with this method (and these effects, "
                    "as rig identify --with); rig identify uses it unless told otherwise "
@@ -144,7 +160,8 @@ def describe_recipe(r: dict) -> str:
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.pass_context
 def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, points, seed, dwell, dwells, settle, poll,
-            transit, readings, measure, out, resume_path, identify_with, operator, notes, progress, yes, as_json):
+            transit, readings, measure, out, resume_path, rig_time, identify_with, operator, notes, progress, yes,
+            as_json):
     """Apply an excitation on the rig and record every point in the session OUT.
 
     Without --config this runs on the simulated device and its virtual
@@ -172,10 +189,16 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         return
     if out is None:
         raise AcquisitionError("give --out S.h5 for a new session, or --resume S.h5 to continue one")
+    timed = None
+    if rig_time is not None:
+        check_options(sequence, [f"--{n.replace('_', '-')}" for n in CONTRADICTING
+                                 if ctx.get_parameter_source(n) is not ParameterSource.DEFAULT])
+        timed = TimedRequest(rig_time, readings if ctx.get_parameter_source("readings")
+                             is not ParameterSource.DEFAULT else None)
     new_session(config_path, out, sequence=sequence, levels=levels, v_min=v_min, v_max=v_max,
                 thermal_term=thermal_term, points=points, seed=seed, dwell=dwell, dwells=dwells, settle=settle,
                 poll=poll, transit=transit, readings=readings, measure=measure, operator=operator, notes=notes,
-                progress=progress, yes=yes, identify_with=identify_with,
+                progress=progress, yes=yes, identify_with=identify_with, timed=timed,
                 report=lambda outcome: print_summary(summarise(read_session(out), outcome), as_json))
 
 
@@ -185,14 +208,16 @@ def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped"
                 settle: float | None = None, poll: float = 0.5, transit: float = 0.0, readings: int = 4,
                 measure: int | None = None, operator: str = "", notes: str = "", progress: bool | None = None,
                 yes: bool = False, report: Callable[[RunOutcome], None] | None = None,
-                identify_with: str | None = None) -> RunOutcome:
+                identify_with: str | None = None, timed: "TimedRequest | None" = None) -> RunOutcome:
     """``rig acquire --config CONFIG_PATH --out OUT ...`` (a new run; the keywords are its options, with
     its defaults): build and check the plan, state its cost on stderr, open the rig, run, and end as
     :func:`~rig.run_driver.drive` does (heater to 0 V; aborted: exit 130; a fault: exit 3).
     ``report(outcome)`` prints the summary (default: nothing).  The session records its identification
     recipe: :func:`~rig.acquisition.recipe.default_recipe`, or ``identify_with``'s method and effects
     (``METHOD[:EFFECT,...]``).  Other commands that acquire a run
-    (``rig diagnose --discriminate-on``) call this, so their runs are acquisitions like any other."""
+    (``rig diagnose --discriminate-on``) call this, so their runs are acquisitions like any other.
+    ``timed`` (``--rig-time``): the plan within its budget sets the dwells, the readings and the recipe
+    (:mod:`rig.acquisition.timed`), and is stated on stderr before the rig is touched."""
     if out.exists() or out.is_symlink():
         raise DataFileError(f"{out}: already exists; a session is never overwritten")
     cfg = load_config(config_path) if config_path else default_config()
@@ -200,8 +225,15 @@ def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped"
     window = rules.window
     refuse_unless_confirmed("rig acquire", too_many_points(planned_points(  # before building it
         sequence, levels, points, thermal_term, DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS)), yes)
-    schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points, seed=seed,
-                               thermal_term=thermal_term, dwell=dwell, choices=_dwell_choices(dwells))
+    if timed is not None:
+        plan = timed_plan(cfg, default_grid(window, levels, v_min, v_max), timed.budget_s,
+                          thermal_term=thermal_term, readings=timed.readings, seed=seed)
+        click.echo(describe(plan), err=True)
+        schedule, readings, dwell = plan.dwell_s, plan.readings, float(plan.dwell_s.max())
+        identify_with = ":".join(["ls", ",".join(plan.effects)]) if plan.effects else "ls"
+    else:
+        schedule = sequence_dwells(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points,
+                                   seed=seed, thermal_term=thermal_term, dwell=dwell, choices=_dwell_choices(dwells))
     settings = _settings(dwell, settle, poll, transit, readings, schedule)
     record = make_record(
         sequence_record(sequence, window, levels=levels, v_min=v_min, v_max=v_max, points=points,
@@ -209,6 +241,10 @@ def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped"
         settings, measure, seed,
     )
     recipe = default_recipe(record) if identify_with is None else given_recipe(identify_with, record)
+    if timed is not None:
+        recipe = dataclasses.replace(recipe, reason=f"rig acquire --rig-time {timed.budget_s:g}: "
+                                                    + ("the plan models the thermal transient" if plan.effects
+                                                       else "the plan waits the transient out"))
     plan = AcquisitionPlan.from_record(record)
     plan.check_window(window, rules.check)  # before the rig is touched
     announce(plan, dwell, transit, settings.schedule, settle is not None, cfg.clock_kind == "virtual", yes)

@@ -1,0 +1,131 @@
+"""``rig acquire --rig-time S``: a plan within a rig-time budget, and the lag it relies on.
+
+* :func:`identify.rig_time.plan_within` keeps its budget, gives the reversal points the longest dwell,
+  refuses a budget below what the grid can identify (naming the least one) and is reproducible;
+* ``thermal_lag:dominant`` recovers a lag as long as the dwells from a run of the simulated device
+  (``drivers.sim``, first-order lag), where the plain ``thermal_lag`` steps from zero cannot;
+* the command plans, states the plan before the rig is touched, records the recipe ``rig identify``
+  uses, and refuses contradictions and impossible budgets with exit 2, writing nothing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drivers.clock import VirtualClock
+from drivers.sim.device import SimVO2
+from drivers.sim.params import SimParams
+from identify import Excitation, Grid, IdentifyError
+from identify.acquisition_plan import reversal_points
+from identify.effects import parse_effects
+from identify.fit import fit_run
+from identify.rig_time import MIN_DWELL_S, least_budget_s, plan_within
+from identify.runs import Run
+
+from .cli import assert_one_line_error, rig_here
+
+GRID = Grid(8, 0.0, 6.0)
+CONFIG = """driver = "sim"
+clock = "virtual"
+[heater]
+max_V = 6.0
+[sensor]
+um_per_V = 5.0
+[sim]
+levels = 8
+time_constant_s = 2.0
+"""
+
+
+def _reference() -> "object":
+    return SimVO2(SimParams(levels=8)).true_model()
+
+
+def test_a_plan_keeps_its_budget_and_gives_reversals_the_longest_dwell():
+    plan = plan_within(GRID, 200.0, _reference(), reading_s=0.01, noise_um=0.01, seed=3)
+    n = Excitation.damped(GRID, True).inputs.size
+    assert plan.n_points == n and plan.dwell_s.shape == (n,)
+    spent = plan.dwell_s.sum() + n * plan.readings * 0.01
+    assert spent == pytest.approx(plan.rig_time_s) and spent <= 200.0 + 1e-9
+    assert np.all(plan.dwell_s >= MIN_DWELL_S)
+    if plan.chosen.kind == "model":
+        rev = reversal_points(plan.inputs)
+        assert plan.dwell_s[rev].min() >= plan.dwell_s[~rev].max()
+        assert plan.effects == ("thermal_lag:dominant",)
+    again = plan_within(GRID, 200.0, _reference(), reading_s=0.01, noise_um=0.01, seed=3)
+    assert np.array_equal(again.dwell_s, plan.dwell_s) and again.chosen == plan.chosen
+
+
+def test_a_budget_below_the_least_is_refused_naming_it():
+    least = least_budget_s(GRID, True, 0.0)
+    n = Excitation.damped(GRID, True).inputs.size
+    assert least == pytest.approx(n * MIN_DWELL_S)
+    with pytest.raises(IdentifyError, match=rf"least budget is {least:.0f} s"):
+        plan_within(GRID, 0.5 * least, _reference())
+    with pytest.raises(IdentifyError, match="positive"):
+        plan_within(GRID, -1.0, _reference())
+
+
+def _sim_run(tau: float, inputs: np.ndarray, dwell: np.ndarray) -> Run:
+    clock = VirtualClock()
+    dev = SimVO2(SimParams(levels=8, time_constant_s=tau, psd_noise_V=0.0), clock)
+    dev.apply_voltage(0.0)
+    clock.sleep(100 * tau)
+    y = np.empty(inputs.size)
+    for k, (v, d) in enumerate(zip(inputs, dwell)):
+        dev.apply_voltage(float(v))
+        clock.sleep(float(d))
+        y[k] = dev.read_psd() * dev.params.psd_um_per_V
+    return Run("r", inputs, y, np.cumsum(dwell), dwell)
+
+
+def test_dominant_lag_is_recovered_where_steps_from_zero_are_not():
+    tau = 2.0
+    inputs = Excitation.damped(GRID, True).inputs
+    rev = reversal_points(inputs)
+    dwell = np.random.default_rng(0).choice([0.3, 0.8, 1.5], size=inputs.size)
+    dwell[rev] = 15.0
+    run = _sim_run(tau, inputs, dwell)
+    rep = fit_run(GRID, run, "ls", parse_effects("thermal_lag:dominant"))
+    lag = rep.model.effects[0].report()
+    assert lag["mean_time_constant_s"] == pytest.approx(tau, rel=0.02)
+    assert lag["fraction"] == pytest.approx(1.0, abs=0.02)
+    assert rep.rmse < 1e-3 * np.ptp(run.outputs)
+    plain = fit_run(GRID, run, "ls", parse_effects("thermal_lag"))
+    assert plain.rmse > 10 * rep.rmse  # the reason for the option
+
+
+def _config(tmp_path):
+    path = tmp_path / "rig.toml"
+    path.write_text(CONFIG)
+    return path
+
+
+def test_rig_acquire_rig_time_plans_runs_and_records_the_recipe(tmp_path):
+    cfg, out = _config(tmp_path), tmp_path / "fast.h5"
+    r = rig_here("acquire", "--config", cfg, "--rig-time", 150, "--out", out, "--json")
+    assert r.code == 0, r.err
+    summary = r.json()
+    assert summary["status"] == "complete" and summary["rig_time_s"] <= 150.0 + 1e-6
+    assert "rig-time plan:" in r.err and "of 150 s" in r.err
+    recipe = summary["identify_recipe"]
+    assert recipe["method"] == "ls" and "--rig-time 150" in recipe["reason"]
+    ident = rig_here("identify", out, "--json")
+    assert ident.code == 0, ident.err
+    model = ident.json()
+    if recipe["effects"]:
+        assert [e["name"] for e in model["effects"]] == ["thermal_lag"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--rig-time", "1"], "least budget is"),
+    (["--rig-time", "0"], "positive"),
+    (["--rig-time", "150", "--dwell", "5"], "--dwell contradicts"),
+    (["--rig-time", "150", "--measure", "40"], "--measure contradicts"),
+    (["--rig-time", "150", "--sequence", "random"], "not --sequence random"),
+])
+def test_rig_time_bad_input_exits_2_and_writes_nothing(tmp_path, args, message):
+    cfg, out = _config(tmp_path), tmp_path / "no.h5"
+    assert_one_line_error(rig_here("acquire", "--config", cfg, "--out", out, *args), message)
+    assert not out.exists()
