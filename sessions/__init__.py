@@ -16,13 +16,15 @@ from .models import ModelRecord
 from .reader import Session, SessionFollower, is_hdf5, read_session
 from .records import Event, ExcitationRecord, IdentifyRecipe, Quantities
 from .rewrite import add_model
-from .schema import SCHEMA_VERSION, TRACKING_COLUMNS, SampleFlag, Status
+from .schema import ADAPTIVE_COLUMNS, ADAPTIVE_KIND, SCHEMA_VERSION, TRACKING_COLUMNS, SampleFlag, Status
 from .writer import SessionWriter
 
 __all__ = [
     "HEADER",
     "SCHEMA_VERSION",
     "TRACKING_COLUMNS",
+    "ADAPTIVE_COLUMNS",
+    "ADAPTIVE_KIND",
     "DataFileError",
     "Event",
     "ExcitationRecord",

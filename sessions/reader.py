@@ -26,7 +26,7 @@ from .errors import DataFileError
 from .lock import held_by_other
 from .models import ModelRecord, read_model_group
 from .records import CalibrationRecord, Event, ExcitationRecord, IdentifyRecipe, Quantities
-from .schema import CALIBRATION_DTYPE, EVENT_DTYPE, FORMAT_NAME, SAMPLE_DTYPE, SCHEMA_VERSION, Status
+from .schema import ADAPTIVE_KIND, CALIBRATION_DTYPE, EVENT_DTYPE, FORMAT_NAME, SAMPLE_DTYPE, SCHEMA_VERSION, Status
 from .swmr import open_swmr_read
 
 
@@ -78,8 +78,11 @@ class Session:
 
     @property
     def is_partial(self) -> bool:
-        """Not complete, or fewer samples than planned points."""
-        return self.status is not Status.COMPLETE or self.n_samples < self.excitation.n_points
+        """Not complete, or fewer samples than planned points (except a run that decides its own length,
+        excitation kind ``adaptive``, whose plan is its most points)."""
+        if self.status is not Status.COMPLETE:
+            return True
+        return self.n_samples < self.excitation.n_points and self.excitation.kind != ADAPTIVE_KIND
 
     def writer_alive(self) -> bool:
         """Whether a process is writing this session now (it holds the writer's lock)."""

@@ -239,6 +239,9 @@ class Sequencer:
         for k in range(start, n):
             if source is None:
                 v = float(inputs[k])
+            elif source.finished(k, self.clock.now() - t0):
+                self.recorder.log("ended", f"the set-point source ended the run after {k} of {n} planned points")
+                break
             else:
                 self._checkpoint(k, "before point")
                 policy = self.settings.at(k) if settle[k] else self.settings.transit

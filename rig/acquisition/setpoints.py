@@ -25,3 +25,7 @@ class SetpointSource(Protocol):
     def measured(self, k: int, v: float, t_s: float, dwell_s: float, deflection_um: float) -> dict[str, float]:
         """Point ``k`` was applied at ``v`` (V), read at ``t_s`` (s) after ``dwell_s`` (s) as ``deflection_um``
         (um; NaN when not measured).  Returns the extra columns to record with it (by name)."""
+
+    def finished(self, k: int, t_s: float) -> bool:
+        """Whether the run ends before point ``k`` (``t_s`` s since its start): a run that decides its own
+        length (``rig acquire --target-nrmse``) ends complete with fewer points than planned."""

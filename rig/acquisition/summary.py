@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from identify.acquisition_plan import reversal_points
-from sessions import SampleFlag, Session
+from sessions import ADAPTIVE_KIND, SampleFlag, Session
 
 from .runner import RunOutcome
 
@@ -78,4 +78,18 @@ def summarise(session: Session, outcome: RunOutcome) -> dict[str, Any]:
         "wall_s": outcome.wall_s,
         "message": outcome.message,
         "identify_recipe": None if session.recipe is None else session.recipe.to_dict(),
+        **_adaptive(session),
     }
+
+
+def _adaptive(session: Session) -> dict[str, Any]:
+    """A run to a target error (``rig acquire --target-nrmse``): its target, the last predicted check nRMSE
+    and whether it reached the target; nothing for other runs."""
+    exc = session.excitation
+    if exc.kind != ADAPTIVE_KIND:
+        return {}
+    rows = session.extra
+    predicted = float(rows["predicted_nrmse"][-1]) if rows is not None and rows.size else float("inf")
+    target = float(exc.extra.get("target_nrmse", float("nan")))
+    return {"target_nrmse": target, "predicted_nrmse": predicted, "target_reached": bool(predicted <= target),
+            "rig_time_cap_s": exc.extra.get("rig_time_cap_s")}

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import click
+import numpy as np
 from click.core import ParameterSource
 
 from drivers.backends import setpoint_rules
@@ -29,10 +30,12 @@ from rig.acquisition import (
     summarise,
 )
 from rig.acquisition.recipe import default_recipe, given_recipe
-from rig.acquisition.timed import CONTRADICTING, check_options, describe, timed_plan
+from rig.acquisition.adaptive import (ADAPTIVE_METHOD, MIN_POINTS, MOST_POINTS_PER_UNKNOWN, AdaptiveSetpoints,
+                                     adaptive_record, check_target, design_for)
+from rig.acquisition.timed import CONTRADICTING, check_options, describe, reference_device, timed_plan
 from rig.acquisition.runner import resumable
 from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS, default_grid
-from sessions import DataFileError, read_session
+from sessions import ADAPTIVE_COLUMNS, ADAPTIVE_KIND, DataFileError, IdentifyRecipe, read_session
 
 from ..budget.acquisition import announce, planned_points, too_many_points
 from ..budget.limits import format_duration, refuse_unless_confirmed
@@ -43,15 +46,17 @@ from ..run_driver import config_for_resume, drive
 #: Options that describe a new run; a resumed run takes all of them from its session.
 PLAN_OPTIONS = ("sequence", "levels", "v_min", "v_max", "thermal_term", "points", "seed", "dwell", "dwells",
                 "settle", "poll", "transit", "readings", "measure", "out", "operator", "notes", "identify_with",
-                "rig_time")
+                "rig_time", "target_nrmse")
 
 
 @dataclass(frozen=True)
 class TimedRequest:
-    """``--rig-time S`` (``budget_s``, s) and ``--readings`` when given (else the plan chooses)."""
+    """``--rig-time S`` (``budget_s``, s) and ``--readings`` when given (else the plan chooses); with
+    ``--target-nrmse X`` (``target_nrmse``) the budget is the run's cap instead."""
 
-    budget_s: float
+    budget_s: float | None
     readings: int | None = None
+    target_nrmse: float | None = None
 
 
 def _settings(dwell: float, settle: float | None, poll: float, transit: float, readings: int,
@@ -148,6 +153,10 @@ def describe_recipe(r: dict) -> str:
               help="Plan the damped oscillation within S seconds of rig time: the dwells, readings and whether "
                    "to model the thermal transient instead of waiting it out, chosen for the least expected "
                    "error on a held-out run; the session records the recipe rig identify then uses.")
+@click.option("--target-nrmse", type=float, metavar="X",
+              help="Choose each next set-point from what was measured (I-optimal for the density) and stop when "
+                   "the model's predicted check nRMSE reaches X (with --rig-time S: or at S seconds; --points: "
+                   "the most points [2 x the unknowns]); every point waits --dwell (or --settle).")
 @click.option("--identify-with", metavar="METHOD[:EFFECT,...]",
               help="Record in the session that it is to be identified with this method (and these effects, "
                    "as rig identify --with); rig identify uses it unless told otherwise "
@@ -160,8 +169,8 @@ def describe_recipe(r: dict) -> str:
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.pass_context
 def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, points, seed, dwell, dwells, settle, poll,
-            transit, readings, measure, out, resume_path, rig_time, identify_with, operator, notes, progress, yes,
-            as_json):
+            transit, readings, measure, out, resume_path, rig_time, target_nrmse, identify_with, operator, notes,
+            progress, yes, as_json):
     """Apply an excitation on the rig and record every point in the session OUT.
 
     Without --config this runs on the simulated device and its virtual
@@ -178,6 +187,10 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         if given:
             raise AcquisitionError(f"--resume continues the session's own plan; {', '.join(given)} cannot be used with it")
         session = resumable(resume_path)
+        if session.excitation.kind == ADAPTIVE_KIND:
+            raise AcquisitionError(f"{resume_path}: a run to a target error cannot be resumed (its next set-points "
+                                   "depend on a design state that is not stored); rig identify reads the points "
+                                   "it has, and a new --target-nrmse run starts afresh")
         cfg = config_for_resume(config_path, session)
         target, total, start = resume_path, session.excitation.n_points, session.n_samples
 
@@ -190,7 +203,15 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
     if out is None:
         raise AcquisitionError("give --out S.h5 for a new session, or --resume S.h5 to continue one")
     timed = None
-    if rig_time is not None:
+    if target_nrmse is not None:
+        given = [f"--{n.replace('_', '-')}" for n in ADAPTIVE_CONTRADICTING
+                 if ctx.get_parameter_source(n) is not ParameterSource.DEFAULT]
+        if sequence != "damped" or given:
+            raise AcquisitionError("--target-nrmse chooses the set-points and the recipe itself; "
+                                   f"{', '.join(given) or '--sequence ' + sequence} contradicts it")
+        timed = TimedRequest(rig_time, None, target_nrmse) if rig_time is not None else TimedRequest(
+            None, None, target_nrmse)
+    elif rig_time is not None:
         check_options(sequence, [f"--{n.replace('_', '-')}" for n in CONTRADICTING
                                  if ctx.get_parameter_source(n) is not ParameterSource.DEFAULT])
         timed = TimedRequest(rig_time, readings if ctx.get_parameter_source("readings")
@@ -225,6 +246,10 @@ def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped"
     window = rules.window
     refuse_unless_confirmed("rig acquire", too_many_points(planned_points(  # before building it
         sequence, levels, points, thermal_term, DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS)), yes)
+    if timed is not None and timed.target_nrmse is not None:
+        return _to_target(cfg, out, timed, window=window, rules=rules, levels=levels, v_min=v_min, v_max=v_max,
+                          thermal_term=thermal_term, points=points, seed=seed, dwell=dwell, settle=settle, poll=poll,
+                          readings=readings, operator=operator, notes=notes, progress=progress, report=report)
     if timed is not None:
         plan = timed_plan(cfg, default_grid(window, levels, v_min, v_max), timed.budget_s,
                           thermal_term=thermal_term, readings=timed.readings, seed=seed)
@@ -254,3 +279,52 @@ def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped"
                                recipe=recipe)
 
     return drive(cfg, out, record.n_points, 0, progress, run, report or (lambda outcome: None), "rig acquire")
+
+
+#: Options a run to a target error chooses itself (given with --target-nrmse: exit 2).
+ADAPTIVE_CONTRADICTING = ("dwells", "measure", "identify_with", "transit")
+
+
+def _to_target(cfg, out: Path, timed: TimedRequest, *, window, rules, levels, v_min, v_max, thermal_term, points,
+               seed, dwell, settle, poll, readings, operator, notes, progress, report) -> RunOutcome:
+    """``rig acquire --target-nrmse X``: a run whose set-points are chosen as it goes
+    (:mod:`rig.acquisition.adaptive`), recorded like any run, ended when the target is predicted."""
+    grid = default_grid(window, levels, v_min, v_max)
+    design = design_for(cfg, grid, (max(window.min_V, grid.v_min), min(window.max_V, grid.v_max)), readings, seed,
+                        thermal_term)
+    ref = reference_device(cfg, grid)
+    span = float(np.ptp(design.check @ np.concatenate([ref.density, [ref.mu0], [ref.c_d] if thermal_term else []])))
+    check_target(timed.target_nrmse, design, span)
+    if timed.budget_s is not None and not (timed.budget_s > 0 and np.isfinite(timed.budget_s)):
+        raise AcquisitionError(f"--rig-time must be a positive number of seconds, got {timed.budget_s:g}")
+    unknowns = grid.n_cells + 1 + int(thermal_term)
+    most = MOST_POINTS_PER_UNKNOWN * unknowns if points is None else int(points)
+    if most < MIN_POINTS:
+        raise AcquisitionError(f"--points {most}: a run to a target needs at least {MIN_POINTS} points")
+    settings = _settings(dwell, settle, poll, 0.0, readings)
+    record = make_record(adaptive_record(grid, most, thermal_term, seed, timed.target_nrmse, timed.budget_s),
+                         settings, None, seed)
+    recipe = IdentifyRecipe(method=ADAPTIVE_METHOD, levels=grid.levels, v_min=grid.v_min, v_max=grid.v_max,
+                            effects=(), thermal_term=thermal_term,
+                            reason=f"rig acquire --target-nrmse {timed.target_nrmse:g}: the prediction is about "
+                                   f"{ADAPTIVE_METHOD}'s smooth, non-negative density")
+    cap = "" if timed.budget_s is None else f", at most {format_duration(timed.budget_s)} of rig time"
+    click.echo(f"run to a target: check nRMSE {timed.target_nrmse:g} predicted from the model's uncertainty "
+               f"(checked on random check points and replicates); at most {most} points of {dwell:g} s"
+               f"{' (or settled sooner)' if settle is not None else ''}{cap}", err=True)
+
+    def say(k: int, predicted: float, t_s: float) -> None:
+        click.echo(f"point {k}: predicted check nRMSE {predicted:.3g} (target {timed.target_nrmse:g}), "
+                   f"rig time {format_duration(t_s)}", err=True)
+
+    source = AdaptiveSetpoints(design, timed.target_nrmse, timed.budget_s, dwell, report=say)
+
+    def run(rig, hooks):
+        return run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes, hooks=hooks,
+                               setpoints=source, sample_columns=ADAPTIVE_COLUMNS, recipe=recipe)
+
+    def done(outcome):
+        click.echo(f"ended: {source.reason} (predicted check nRMSE {source.predicted:.3g})", err=True)
+        (report or (lambda o: None))(outcome)
+
+    return drive(cfg, out, record.n_points, 0, progress, run, done, "rig acquire")

@@ -35,6 +35,10 @@ class TrackingSetpoints:
         self.inverter = Inverter(model, domain=domain, run_name=run_name, initial_V=0.0)
         self._pending: tuple[int, float, float, bool] | None = None  # (k, command, v, reachable)
 
+    def finished(self, k: int, t_s: float) -> bool:
+        """A tracking run follows every target: never ends early."""
+        return False
+
     def setpoint(self, k: int, t_s: float, dwell_s: float) -> float:
         y = float(self.targets[k])
         command = self.feedback.command(k, y)

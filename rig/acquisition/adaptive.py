@@ -1,0 +1,115 @@
+"""``rig acquire --target-nrmse X``: acquire until the model's predicted held-out error reaches X.
+
+The rig's side of :class:`identify.sequential.SequentialDesign` (pure): a
+:class:`~rig.acquisition.setpoints.SetpointSource` that asks the design for
+each next set-point, tells it what was read, records the predicted check
+nRMSE with every point, reports it as it falls, and ends the run -- complete,
+with fewer points than its most -- when the prediction reaches the target,
+when the next point would pass the ``--rig-time`` cap, or at the most
+points.  The session's excitation is of kind ``adaptive`` (its planned
+inputs are placeholders; the applied inputs are the samples) and records
+the recipe the prediction is about (``smooth_nn`` on the grid: a smooth,
+non-negative density, as the design's prior assumes).
+
+The design's prior and noise come from the bench (:mod:`.timed`: the
+reference device and the noise of one reading): the prior sd of a cell is
+the reference's rms cell weight, and of a difference of neighbours the
+same.  The prediction assumes points at rest (quasi-static): give a dwell
+long enough, or ``--settle``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from identify import Grid
+from identify.sequential import SequentialDesign
+from sessions import ADAPTIVE_COLUMNS, ADAPTIVE_KIND, ExcitationRecord
+
+from .errors import AcquisitionError
+from .timed import reading_costs, reference_device
+
+#: The recipe a run to a target records (what its prediction is about).
+ADAPTIVE_METHOD = "smooth_nn"
+#: Most points without ``--points``: this many times the model's unknowns.
+MOST_POINTS_PER_UNKNOWN = 2
+#: How often (points) the predicted error is reported.
+REPORT_EVERY = 10
+#: Codes of ``point_kind`` in the session.
+KIND_CODES = {"design": 0, "check": 1, "replicate": 2}
+#: Points before the target may end the run (the prediction needs some data behind it).
+MIN_POINTS = 20
+
+
+def design_for(cfg, grid: Grid, window: tuple[float, float], readings: int, seed: int,
+               thermal_term: bool = True) -> SequentialDesign:
+    """The sequential design of a run on ``cfg``'s rig (see the module docstring)."""
+    noise_um, _ = reading_costs(cfg)
+    ref = reference_device(cfg, grid)
+    cell = float(np.sqrt(np.mean(np.square(ref.density))))
+    return SequentialDesign(grid, noise_um=noise_um / math.sqrt(readings), scale_um=cell, smooth_um=cell,
+                            window=window, thermal_term=thermal_term, seed=seed)
+
+
+def check_target(target: float, design: SequentialDesign, span_um: float) -> None:
+    """Refuse a target that is not a positive number, or below the noise floor of a device of output span
+    ``span_um`` (um)."""
+    if not (math.isfinite(target) and target > 0):
+        raise AcquisitionError(f"--target-nrmse must be a positive number, got {target:g}")
+    floor = design.floor_nrmse(span_um)
+    if target < floor:
+        raise AcquisitionError(f"--target-nrmse {target:g} is below the noise floor: one point's noise alone is "
+                               f"{floor:.2g} of the output span; more readings per point (--readings) lower it")
+
+
+def adaptive_record(grid: Grid, most: int, thermal_term: bool, seed: int, target: float,
+                    cap_s: float | None) -> ExcitationRecord:
+    """The excitation of a run to a target: ``most`` placeholder points (the lowest wall) of kind
+    ``adaptive``, every one measured, with the target and the cap kept in ``extra``."""
+    return ExcitationRecord(kind=ADAPTIVE_KIND, inputs=np.full(most, grid.v_min), levels=grid.levels,
+                            v_min=grid.v_min, v_max=grid.v_max, thermal_term=thermal_term, seed=seed,
+                            extra={"target_nrmse": target, "rig_time_cap_s": cap_s})
+
+
+class AdaptiveSetpoints:
+    """The set-point source of a run to ``target`` (check nRMSE) within ``cap_s`` seconds (None: none);
+    ``dwell_s`` (s) is each point's planned wait, ``report(k, predicted, t_s)`` is told the prediction
+    every :data:`REPORT_EVERY` points."""
+
+    def __init__(self, design: SequentialDesign, target: float, cap_s: float | None, dwell_s: float,
+                 report: Callable[[int, float, float], None] | None = None) -> None:
+        self.design, self.target, self.cap_s, self.dwell_s = design, float(target), cap_s, float(dwell_s)
+        self.report = report
+        self.predicted = math.inf
+        self.reason = "most points"
+        self._kind = "design"
+
+    def finished(self, k: int, t_s: float) -> bool:
+        if k >= MIN_POINTS and self.predicted <= self.target:
+            self.reason = "target reached"
+            return True
+        if self.cap_s is not None and t_s + self.dwell_s > self.cap_s:
+            self.reason = "rig-time cap"
+            return True
+        return False
+
+    def setpoint(self, k: int, t_s: float, dwell_s: float) -> float:
+        v = self.design.next_input()
+        self._kind = self.design.proposed
+        return v
+
+    def measured(self, k: int, v: float, t_s: float, dwell_s: float, deflection_um: float) -> dict[str, float]:
+        kind = self._kind
+        self.design.add(v, deflection_um, kind)
+        self.predicted = self.design.predicted_nrmse()
+        if self.report is not None and (k + 1) % REPORT_EVERY == 0:
+            self.report(k + 1, self.predicted, t_s)
+        return {"predicted_nrmse": self.predicted, "point_kind": KIND_CODES[kind]}
+
+
+def sample_columns():
+    """The extra sample columns a run to a target records."""
+    return ADAPTIVE_COLUMNS
