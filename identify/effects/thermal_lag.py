@@ -28,8 +28,9 @@ steps from no lag cannot reach a lag that large, so the fit first scans the
 dominant time constant: the whole rise in one mode, each drive, on a
 log-spaced scan of :data:`SCAN_S` refined by Brent's method, each candidate
 scored by the residual of the density solved with it; then it starts from
-that mode and its neighbours a factor :data:`NEIGHBOUR_RATIO` faster and
-slower (fractions 0, 1, 0), and the usual steps shape the spectrum.
+the whole rise in that mode, with the spectrum's other modes at fraction 0
+beside it, and the usual steps shape the spectrum (a beam of several modes
+is a mixture of them).
 
 Identifiable only from a run whose dwells differ: with one dwell ``d`` a
 mode enters only as ``f exp(-d / tau)``, so time constants and sizes
@@ -61,8 +62,8 @@ STEP = 0.05
 SAME_DWELL = 1e-6
 #: ``dominant``: the time constants (s) the scan tries before refining the best.
 SCAN_S = tuple(float(x) for x in np.geomspace(0.1, 100.0, 13))
-#: ``dominant``: the start's neighbour modes are this factor faster and slower than the scanned one.
-NEIGHBOUR_RATIO = 3.0
+#: ``dominant``: a mode of the spectrum within this log-distance of the scanned one is left out of the start.
+SAME_MODE = 0.2
 #: ``dominant``: Brent's tolerance on log(time constant).
 SCAN_TOL = 0.01
 #: Option (``thermal_lag:dominant``).
@@ -155,8 +156,9 @@ class ThermalLag(Effect):
             if best is None or cache[g] < best[0]:
                 best = (cache[g], drive, math.exp(g))
         _, drive, tau = best
-        return ThermalLag({"drive": drive, "time_constants_s": [tau / NEIGHBOUR_RATIO, tau, tau * NEIGHBOUR_RATIO],
-                           "fractions": [0.0, 1.0, 0.0]})
+        taus = sorted([t for t in TIME_CONSTANTS_S if abs(math.log(t / tau)) > SAME_MODE] + [tau])
+        return ThermalLag({"drive": drive, "time_constants_s": taus,
+                           "fractions": [1.0 if t == tau else 0.0 for t in taus]})
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         if "time_constant_s" in params:  # one mode, as written by hand
