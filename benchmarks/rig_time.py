@@ -199,6 +199,7 @@ def _adaptive_run(device, target: float, k: int):
     import copy
 
     from identify.sequential import SequentialDesign
+    from identify.sequential import MIN_CHECKS
     from rig.acquisition.adaptive import MIN_POINTS, MOST_POINTS_PER_UNKNOWN
 
     ref = reference_device(default_config(), GRID)
@@ -227,7 +228,7 @@ def _adaptive_run(device, target: float, k: int):
             design.add(nxt, float(y), kind)
             v.append(nxt)
             predicted = design.predicted_nrmse()
-            if len(v) >= MIN_POINTS and predicted <= target:
+            if len(v) >= MIN_POINTS and len(design.errors) >= MIN_CHECKS and predicted <= target:
                 done = True
                 break
         design._rng = fantasy._rng

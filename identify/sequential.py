@@ -27,12 +27,14 @@ replaces the assumed noise if it is larger.
 **Calibrated against the data.**  The prior is a guess; so every
 :data:`CHECK_EVERY`-th point is a *check point*, a level drawn at random
 (as a random check run draws them), whose reading is predicted before it is
-used.  Once :data:`MIN_CHECKS` exist, the median ratio of the squared errors
-of the :data:`RECENT_CHECKS` latest to
-their predicted variances (``s^T P s + sigma^2``), over the median a
-calibrated model would show (:data:`CHI2_1_MEDIAN`), scales the predicted
-variance: a prior that was too confident, or too cautious, is corrected by
-what the run actually showed.
+used.  Once :data:`MIN_CHECKS` exist, the ratios of the squared errors of
+the :data:`RECENT_CHECKS` latest to their predicted variances
+(``s^T P s + sigma^2``), each capped at :data:`RATIO_CAP`, give the factor on
+the predicted variance: their sum over the lower :data:`CONFIDENCE` quantile
+of chi-squared with as many degrees of freedom -- the upper bound of the
+factor at that confidence, had the model been calibrated.  A prior that was
+too confident, or too cautious, is corrected by what the run showed, and
+the run stops on a bound, not on a guess.
 
 **The next point** (I-optimal): among the grid's walls and the midpoints
 between them (off-wall points identify the thermal term) inside the window,
@@ -62,9 +64,11 @@ MIN_REPLICATES = 3
 CHECK_EVERY = 8
 #: Check points needed before their errors calibrate the predicted variance, and how many recent ones do.
 MIN_CHECKS, RECENT_CHECKS = 5, 24
-#: Median of a chi-squared variable of one degree of freedom: a calibrated model's median squared
-#: error over predicted variance.
-CHI2_1_MEDIAN = 0.4549364
+#: A check point's squared error over its predicted variance counts at most this much (one wild point
+#: must not decide the run).
+RATIO_CAP = 10.0
+#: The calibration is the upper bound of this one-sided confidence (the run stops on a bound, not a guess).
+CONFIDENCE = 0.8
 #: Prior standard deviation of the bias (um) and of the thermal term (um/V): nearly free.
 FREE_SD = 1e3
 #: Points of each random check run the predicted error is taken over, and how many runs.
@@ -195,8 +199,12 @@ class SequentialDesign:
         """The factor the check points put on the predicted variance (1 until :data:`MIN_CHECKS`)."""
         if len(self.errors) < MIN_CHECKS:
             return 1.0
+        from scipy.stats import chi2
+
         e = np.asarray(self.errors[-RECENT_CHECKS:])
-        return float(np.median(e[:, 0] / e[:, 1]) / CHI2_1_MEDIAN)
+        ratios = np.minimum(e[:, 0] / e[:, 1], RATIO_CAP)
+        m = ratios.size
+        return float(np.sum(ratios) / chi2.ppf(1.0 - CONFIDENCE, m))
 
     def floor_nrmse(self, span_um: float) -> float:
         """The least check nRMSE any model can show on a device of output span ``span_um``: the noise."""

@@ -26,7 +26,7 @@ from collections.abc import Callable
 import numpy as np
 
 from identify import Grid
-from identify.sequential import SequentialDesign
+from identify.sequential import MIN_CHECKS, SequentialDesign
 from sessions import ADAPTIVE_COLUMNS, ADAPTIVE_KIND, ExcitationRecord
 
 from .errors import AcquisitionError
@@ -88,7 +88,7 @@ class AdaptiveSetpoints:
         self._kind = "design"
 
     def finished(self, k: int, t_s: float) -> bool:
-        if k >= MIN_POINTS and self.predicted <= self.target:
+        if k >= MIN_POINTS and len(self.design.errors) >= MIN_CHECKS and self.predicted <= self.target:
             self.reason = "target reached"
             return True
         if self.cap_s is not None and t_s + self.dwell_s > self.cap_s:
