@@ -38,19 +38,34 @@ from __future__ import annotations
 
 from abc import ABC
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, ClassVar
+from typing import Any, Callable, ClassVar, Protocol
 
 import numpy as np
 
 from ..errors import IdentifyError
+from ..forward import Equation22
 from ..grid import Grid
+from ..memory import InitialState
 from ..runs import Run
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..model import PreisachModel
 
 INPUT, OUTPUT, SENSOR = "input", "output", "sensor"
 STAGES = (INPUT, OUTPUT, SENSOR)
+
+
+class HostModel(Equation22, Protocol):
+    """What an effect reads of the model it acts beside: equation (22)'s parameters, the fitted effects it
+    carries and its prediction.  A :class:`identify.model.PreisachModel` is one; the effects stand below
+    the model (which acts with them on a run, :mod:`identify.effects.compose`) and know it by this shape."""
+
+    @property
+    def effects(self) -> tuple["Effect", ...]: ...
+
+    def predict(self, inputs: np.ndarray, initial: InitialState = "negative",
+                history: np.ndarray | None = None) -> np.ndarray:
+        """Equation (22)'s output (um) for an input sequence (V), ``(n,)``, the effects left out."""
+
+    def without_effects(self) -> "HostModel":
+        """This model's equation (22) part."""
 
 
 class EffectNotIdentifiable(IdentifyError):
@@ -102,7 +117,7 @@ class Context:
     """
 
     grid: Grid
-    model: "PreisachModel"
+    model: "HostModel"
     runs: tuple[Run, ...]
     inputs: tuple[np.ndarray, ...]
     thermal: tuple[np.ndarray, ...]
@@ -111,7 +126,7 @@ class Context:
     output_centre: float
     output_half_range: float
     #: ``x -> sum mu_ij s_ij(x) + mu0`` for ``model`` (the thermal term left out), ``(n,)`` -> ``(n,)``;
-    #: None: :meth:`PreisachModel.predict`.  The joint fit passes a cached one.
+    #: None: :meth:`HostModel.predict`.  The joint fit passes a cached one.
     hysteresis: Callable[[np.ndarray], np.ndarray] | None = None
     #: Per run ``(n_i,)``: equation (22)'s part of the output (before the output effects); None: ``predictions``.
     bare: tuple[np.ndarray, ...] | None = None
@@ -121,7 +136,7 @@ class Context:
         return self.predictions[i] if self.bare is None else self.bare[i]
 
     @classmethod
-    def of_model(cls, model: "PreisachModel", runs: tuple[Run, ...] | list[Run], n_fit: int | None = None) -> "Context":
+    def of_model(cls, model: "HostModel", runs: tuple[Run, ...] | list[Run], n_fit: int | None = None) -> "Context":
         """The context of an equation (22) model without effects: the inputs are the heater voltages.
 
         ``n_fit`` (default: all) is how many leading runs are identification
@@ -146,7 +161,7 @@ class Context:
         return part + m.c_d * np.asarray(th, dtype=float)
 
 
-def start_of(model: "PreisachModel", initial_V: float) -> tuple[float, float]:
+def start_of(model: "HostModel", initial_V: float) -> tuple[float, float]:
     """Equation (22)'s output and its phase-transition part (um) at a run's initial state: the memory in
     negative saturation, the input risen to ``initial_V`` (V) and at rest there (the sequencer saturates
     at 0 V before the first point, and the first point's change is counted from there)."""

@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite, finite_array, needs_reversals, single_columns
@@ -98,8 +99,6 @@ class FirstPoint(Effect):
         if coef.size in (6, 7):  # written before the saturating term, or before the unsigned sizes
             coef = np.append(coef, np.zeros(len(LABELS) - coef.size))
         if coef.size != len(LABELS) or cell <= 0:
-            from ..errors import IdentifyError
-
             raise IdentifyError(f"effect {self.name!r}: needs {len(LABELS)} coefficients_um and cell > 0")
         return {"coefficients_um": coef.tolist(), "terms": list(LABELS), "decay": decay, "cell": cell}
 

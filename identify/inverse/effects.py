@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..effects import INPUT, OUTPUT, SENSOR, Effect
+from ..effects.thermal_lag import mode_drives
 from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
@@ -162,8 +163,6 @@ class LagState:
     """
 
     def __init__(self, effect: Effect) -> None:
-        from ..effects.thermal_lag import mode_drives
-
         p = effect.params
         self.taus = np.asarray(p["time_constants_s"], dtype=float)
         self.fractions = np.asarray(p["fractions"], dtype=float)

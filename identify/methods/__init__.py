@@ -24,7 +24,8 @@ from .compressive import CompressiveSensing, CompressiveSensingNoDCT, Compressiv
 from .forc_everett import EverettFORC
 from .least_squares import LeastSquares
 from .ordered_nn import CompressiveSensingOrderNonNegative
-from .problem import Problem, choose_rows
+from ..sampling import choose_rows
+from .problem import Problem
 from .smooth_nn import SmoothNonNegative
 
 METHODS: dict[str, type[Method]] = {

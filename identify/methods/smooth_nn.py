@@ -58,6 +58,7 @@ from .l1 import solve_clarabel
 from .nonneg_qp import nonneg_qp
 from .normal_equations import NormalEquations, normal_equations
 from .problem import Problem
+from .smooth_large import solve_iterative
 from .triangle_penalty import dense_roughness_matrix, difference_matrix
 
 #: Above this many cells (L = 62) the default algorithm is the iterative one.
@@ -95,8 +96,7 @@ class SmoothNonNegative(Method):
         problem.require_thermal_identifiable(self.name)
         if self.dense:
             return solve_dense(problem, self.weight)
-        from .smooth_large import solve_iterative
-        from .smooth_square import solve_outputs
+        from .smooth_square import solve_outputs  # here: Clarabel's import is paid by the fits that use it
 
         algorithm = self.algorithm
         if algorithm == "auto":
