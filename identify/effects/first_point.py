@@ -92,6 +92,10 @@ class FirstPoint(Effect):
     summary = "the first reading after a reversal differs systematically (a first-point artefact)"
     stage = OUTPUT
 
+    def inversion_refused(self) -> str | None:
+        return ("its offset after a turn grows with the reversing step through a saturating exponential, which no "
+                "polynomial piece holds")
+
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         decay = finite(params, "decay", self.name) if "decay" in params else 0.0
         cell = finite(params, "cell", self.name) if "cell" in params else 1.0

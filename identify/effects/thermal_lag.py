@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
-from .base import INPUT, Columns, Context, Effect, finite_array, needs_heater, single_columns
+from .base import INPUT, Columns, Context, Effect, finite_array, needs_dwell, needs_heater, single_columns
 
 #: The modes' time constants (s): log-spaced from a fast beam to a slow package.
 TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(0.5, 300.0, 10))
@@ -106,6 +106,8 @@ class ThermalLag(Effect):
     stage = INPUT
     drives_thermal_term = True
     absolute = True
+    must_record = (needs_heater, needs_dwell)
+    inversion = "lag"
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         if "time_constant_s" in params:  # one mode, as written by hand
@@ -118,14 +120,6 @@ class ThermalLag(Effect):
             raise IdentifyError(f"effect {self.name!r}: time_constants_s (> 0) and fractions must match, drive one of "
                                 f"{', '.join(DRIVES)}")
         return {"drive": drive, "time_constants_s": taus.tolist(), "fractions": fractions.tolist()}
-
-    def applicable(self, runs: tuple[Run, ...]) -> str | None:
-        heater = needs_heater(runs)
-        if heater is not None:
-            return heater
-        if not any(r.has_dwell for r in runs):
-            return "no run records its dwell (set-point to readings), so there is nothing for a lag to act over"
-        return None
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         why = self.applicable(runs)
