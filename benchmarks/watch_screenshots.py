@@ -84,11 +84,11 @@ def forc_page(tmp: Path, out: Path, drv) -> None:
 
 
 def check_page(tmp: Path, out: Path, drv) -> None:
-    from rig.diagnosis.demo import DEMO_STRENGTHS
+    from rig.diagnosis.demo import demo_strength
     from rig.diagnosis.simulate import SimulatedBench, simulate
 
     (tmp / "demo").mkdir()
-    fit, check = simulate(SimulatedBench("creep", DEMO_STRENGTHS["creep"]), tmp / "demo")
+    fit, check = simulate(SimulatedBench("creep", demo_strength("creep")), tmp / "demo")
     with watch(check, "--fit", fit) as w:
         base = w.ready["url"]
         drv.get(base)

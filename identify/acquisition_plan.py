@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import IdentifyError
-from .methods.problem import choose_rows
+from .sampling import choose_rows
 
 
 def reversal_points(inputs: np.ndarray) -> np.ndarray:

@@ -22,7 +22,7 @@ Fits on one design share them: build each
 rows)`` (another ``M`` or seed, the study's runs, the methods compared on one
 data set, ``rig bench``'s repeats).  Nothing is kept process-wide: what a
 design built lives as long as the design.  (Not to be confused with
-:class:`identify.diagnosis.scoring.Design`, a diagnosis candidate's columns.)
+:class:`identify.cross_validation.Design`, a diagnosis candidate's columns.)
 
 **The square design.**  The fast paths of ``cs``, ``cs_order``,
 ``cs_order_nn`` and ``cs_nodct`` need ``S`` square and invertible: as many

@@ -10,21 +10,21 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from .errors import IdentifyError
 from .design import thermal_point_row
+from .effects import Effect, parse_effects
+from .effects.joint import fit_with_effects
+from .errors import IdentifyError
 from .grid import Grid
 from .memory import InitialState
 from .methods import Problem, choose_rows, make_method
 from .metrics import max_abs, normalised, rmse
 from .model import PreisachModel
+from .runs import Run
 from .threads import blas_threads_for
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .runs import Run
 
 
 @dataclass(frozen=True)
@@ -137,7 +137,7 @@ def fit_sequence(
 
 def fit_run(
     grid: Grid,
-    run: "Run",
+    run: Run,
     method: str = "ls",
     effects: list | tuple = (),
     *,
@@ -151,9 +151,6 @@ def fit_run(
     ``info`` adds ``base_rmse`` (the same fit without the effects, um),
     ``effect_settings`` and the number of linear ``solves``.
     """
-    from .effects import Effect, parse_effects
-    from .effects.joint import fit_with_effects
-
     chosen = [e if isinstance(e, Effect) else parse_effects(e)[0] for e in effects]
     with blas_threads_for(grid.n_cells + 2):  # the joint fit's many solves and products, on one thread when small
         joint = fit_with_effects(grid, [run], method, chosen, thermal_term=thermal_term, settings=settings)

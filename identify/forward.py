@@ -17,21 +17,39 @@ memory curve (:mod:`identify.everett`).  Two ways to use it:
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from .everett import everett, everett_increments, everett_table, prefix_sums
-from .grid import WALL_TOLERANCE
+from .grid import WALL_TOLERANCE, Grid
 from .memory import InitialState, MemoryCurve
 from .regressor import check_inputs, initial_curve
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .model import PreisachModel
+
+class Equation22(Protocol):
+    """What the forward model reads of a model: equation (22)'s parameters.
+
+    A :class:`identify.model.PreisachModel` is one; the forward model
+    needs nothing else of it (its effects act on whole runs, above this
+    module).
+    """
+
+    @property
+    def grid(self) -> Grid: ...
+    @property
+    def density(self) -> np.ndarray:
+        """Cell weights (um), ``(n_cells,)`` in the grid's parameter order."""
+    @property
+    def mu0(self) -> float:
+        """The bias (um)."""
+    @property
+    def c_d(self) -> float:
+        """The linear thermal coefficient (um/V)."""
 
 
 def predict(
-    model: "PreisachModel",
+    model: Equation22,
     inputs: np.ndarray,
     initial: InitialState = "negative",
     history: np.ndarray | None = None,
@@ -63,14 +81,15 @@ class HysteresisState:
 
     Parameters
     ----------
-    model: the :class:`~identify.model.PreisachModel`.
+    model: the model's equation (22) (:class:`Equation22`, e.g. a
+        :class:`~identify.model.PreisachModel`).
     initial, history: the memory before the first input (as for
         :meth:`PreisachModel.predict`).
     """
 
     def __init__(
         self,
-        model: "PreisachModel",
+        model: Equation22,
         initial: InitialState = "negative",
         history: np.ndarray | None = None,
     ) -> None:

@@ -16,14 +16,16 @@ exactly equation (22) and reads and writes exactly as before.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
+from . import forward
+from .effects import Effect, effect_from_dict, effect_to_dict, pipeline_order
+from .effects.compose import predict_run
 from .errors import IdentifyError
 from .grid import Grid
-from . import forward
 from .memory import InitialState
 from .regressor import n_parameters
 
@@ -48,7 +50,7 @@ class PreisachModel:
     output_unit: str = "um"
     metadata: dict[str, Any] = field(default_factory=dict, compare=False)
     #: Fitted effects (:class:`identify.effects.Effect`), in the order they act; () for equation (22) alone.
-    effects: tuple = field(default=(), compare=False)
+    effects: tuple[Effect, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         d = np.array(self.density, dtype=float)
@@ -120,14 +122,10 @@ class PreisachModel:
         Raises :class:`identify.effects.EffectNotApplicable` when the run
         lacks what an effect needs (time stamps for ``creep``, ...).
         """
-        from .effects.compose import predict_run
-
         return predict_run(self, run)
 
     def without_effects(self) -> "PreisachModel":
         """This model's equation (22) part."""
-        from dataclasses import replace
-
         return replace(self, effects=()) if self.effects else self
 
     def state(self, initial: InitialState = "negative", history: np.ndarray | None = None) -> "forward.HysteresisState":
@@ -194,8 +192,6 @@ class PreisachModel:
         if not isinstance(effects, list):
             raise IdentifyError("model 'effects' must be a list of {\"name\", \"params\"} objects")
         if effects:
-            from .effects import effect_from_dict, pipeline_order
-
             effects = pipeline_order(effect_from_dict(e) for e in effects)
         return cls(
             grid,
@@ -209,8 +205,6 @@ class PreisachModel:
         )
 
 
-def effect_dict(effect: Any) -> dict[str, Any]:
+def effect_dict(effect: Effect) -> dict[str, Any]:
     """An effect's stored form, ``{"name", "params"}``."""
-    from .effects import effect_to_dict
-
     return effect_to_dict(effect)

@@ -49,12 +49,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.stats import chi2
 
 from .errors import IdentifyError
 from .excitation import Excitation
 from .grid import Grid
 from .memory import CellStates, MemoryCurve
 from .methods.triangle_penalty import dense_roughness_matrix
+from .regressor import regressor_matrix
 
 #: Every this many points, the next one repeats the last set-point (a replicate).
 REPLICATE_EVERY = 25
@@ -117,8 +119,6 @@ class SequentialDesign:
 
     # ------------------------------------------------------------ rows
     def _rows(self, v: np.ndarray) -> np.ndarray:
-        from .regressor import regressor_matrix
-
         return regressor_matrix(self.grid, v, self.thermal_term)
 
     def _row(self, areas: np.ndarray, v: float) -> np.ndarray:
@@ -199,8 +199,6 @@ class SequentialDesign:
         """The factor the check points put on the predicted variance (1 until :data:`MIN_CHECKS`)."""
         if len(self.errors) < MIN_CHECKS:
             return 1.0
-        from scipy.stats import chi2
-
         e = np.asarray(self.errors[-RECENT_CHECKS:])
         ratios = np.minimum(e[:, 0] / e[:, 1], RATIO_CAP)
         m = ratios.size

@@ -10,19 +10,16 @@ than scored on saturated predictions.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from .effects.nuisance import held_out_prediction
 from .errors import IdentifyError
 from .grid import Grid
 from .memory import InitialState
 from .metrics import max_abs, normalised, output_range, rmse
 from .model import PreisachModel
 from .regressor import check_inputs
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .runs import Run
+from .runs import Run
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,7 +111,7 @@ def _report(prediction: np.ndarray, rows: np.ndarray, y: np.ndarray, nuisance: d
     )
 
 
-def validate_run(model: PreisachModel, run: "Run", *, check_range: bool = True) -> ValidationReport:
+def validate_run(model: PreisachModel, run: Run, *, check_range: bool = True) -> ValidationReport:
     """:func:`validate_model` for a model with effects, on a whole :class:`~identify.runs.Run`
     (its time stamps and dwells), from negative saturation.
 
@@ -124,8 +121,6 @@ def validate_run(model: PreisachModel, run: "Run", *, check_range: bool = True) 
     :class:`identify.effects.EffectNotApplicable` when the run lacks what an
     effect needs.
     """
-    from .effects.nuisance import held_out_prediction
-
     rows = run.rows
     if rows.size == 0:
         raise IdentifyError("no measured output to compare the model with")

@@ -35,7 +35,7 @@ from identify import Excitation
 from sessions import ModelRecord
 from sessions.recording import Recording
 
-from .diagnosis.demo import DEMO_STRENGTHS, diagnose_sessions
+from .diagnosis.demo import demo_strength, diagnose_sessions
 from .diagnosis.report import write_figures
 from .diagnosis.simulate import SimulatedBench, simulate_check_run, simulate_fit_run
 from .errors import UserError
@@ -69,7 +69,7 @@ class DemoSettings:
     def effect_strength(self) -> float:
         if self.effect is None:
             return 0.0
-        return DEMO_STRENGTHS[self.effect] if self.strength is None else float(self.strength)
+        return demo_strength(self.effect) if self.strength is None else float(self.strength)
 
 
 @dataclass(eq=False)
@@ -151,7 +151,7 @@ def acquire_step(s: DemoSettings, result: DemoResult) -> None:
         setting = f"--with {s.effect} --strength {s.effect_strength:g}" if s.effect else "the ideal device"
         raise UserError(f"{setting}: the simulated rig cannot record the demo's runs ({exc}); nothing was "
                         f"kept in {result.out}; choose a smaller --strength (the demo's own: "
-                        f"{DEMO_STRENGTHS.get(s.effect, 0):g})") from None
+                        f"{demo_strength(s.effect):g})") from None
     result.acquire_seconds = time.perf_counter() - t0
 
 

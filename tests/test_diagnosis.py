@@ -14,7 +14,7 @@ from identify.diagnosis.base import fit_base, uncertain_directions
 from identify.effects import EFFECTS, Context
 from identify.effects.thermal_lag import lagged
 from identify.diagnosis.noise import NoiseEstimate, combine, from_repeated_runs, from_repeated_visits
-from identify.diagnosis.scoring import (Design, bootstrap_mse, cross_validate, feasible_coefficients, make_blocks,
+from identify.cross_validation import (Design, bootstrap_mse, cross_validate, feasible_coefficients, make_blocks,
                                        solve_coefficients)
 from identify.diagnosis.verdict import Evidence
 

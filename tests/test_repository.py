@@ -49,7 +49,11 @@ def test_benchmarks_are_scripts_not_an_installed_package(tmp_path):
     assert not any(p.startswith("benchmarks") for p in packages["include"])
     assert not (REPO / "benchmarks" / "__init__.py").exists()
     code = "import importlib.util, sys; sys.stdout.write(str(importlib.util.find_spec('benchmarks')))"
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60)
+    # installed means found without the checkout on the path: a PYTHONPATH naming the checkout (a worktree's
+    # tests run so) finds benchmarks/ as a namespace package, installed or not
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60,
+                          env=env)
     assert done.stdout == "None", done.stdout + done.stderr
     # every script runs from its file (from a checkout: the repository's packages, or benchmarks/ as a
     # namespace package from the root, as `python -m benchmarks.withheld.run` does)

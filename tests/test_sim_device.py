@@ -11,7 +11,7 @@ from scipy import integrate
 
 from drivers import SensorError, VirtualClock, default_config, open_rig
 from drivers.sim import DeviceRefused, Effect, SimParams, SimVO2
-from drivers.sim.effects import make_effects
+from drivers.sim.builtin_effects import make_effects
 from drivers.sim.transition import transition_density
 from identify import Grid, PreisachModel, damped_oscillation, random_input
 

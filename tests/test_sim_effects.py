@@ -10,7 +10,7 @@ import pytest
 from drivers import VirtualClock
 from drivers.sim import EFFECTS, SimParams, SimVO2
 from drivers.sim.builtin_effects import SmoothDrift
-from drivers.sim.effects import make_effects
+from drivers.sim.builtin_effects import make_effects
 
 QUIET = dict(psd_noise_V=0.0, levels=12)
 

@@ -7,7 +7,7 @@ Its entry, ``BACKEND``, is the ``sim`` driver of ``rig.toml``.
 * :mod:`~drivers.sim.device` -- :class:`SimVO2`, the physics and its state;
 * :mod:`~drivers.sim.effects` -- the hook for extra physical effects;
 * :mod:`~drivers.sim.builtin_effects` -- the unmodelled effects (thermal lag,
-  drifts, Joule power, creep, sensor nonlinearity);
+  drifts, Joule power, creep, sensor nonlinearity) and their registry;
 * :mod:`~drivers.sim.faults` -- faults to inject in tests;
 * :mod:`~drivers.sim.backend` -- the in-process ``sim`` driver;
 * :mod:`~drivers.sim.modbus_server`, :mod:`~drivers.sim.serial_server`,
@@ -16,9 +16,9 @@ Its entry, ``BACKEND``, is the ``sim`` driver of ``rig.toml``.
 """
 
 from ..backends import Backend
-from . import builtin_effects  # noqa: F401  (registers the built-in effects)
 from .device import DeviceRefused, SimState, SimVO2
-from .effects import EFFECTS, Effect, Moment, register_effect
+from .builtin_effects import EFFECTS, SIM_EFFECT_CLASSES
+from .effects import Effect, Moment
 from .faults import FaultPlan
 from .params import SimParams
 
@@ -28,6 +28,7 @@ BACKEND = Backend("sim", "sim", SimParams, "drivers.sim.backend", "the simulated
 __all__ = [
     "BACKEND",
     "EFFECTS",
+    "SIM_EFFECT_CLASSES",
     "DeviceRefused",
     "Effect",
     "FaultPlan",
@@ -35,5 +36,4 @@ __all__ = [
     "SimParams",
     "SimState",
     "SimVO2",
-    "register_effect",
 ]

@@ -57,7 +57,9 @@ from typing import Any
 
 import numpy as np
 
-from .effects import Effect, Moment, register_effect
+from identify.registry import ByName
+
+from .effects import Effect, Moment
 
 #: Sinusoids in a drift realisation.
 DRIFT_COMPONENTS = 4
@@ -82,7 +84,6 @@ class SmoothDrift:
         return float(np.sum(self.amplitudes * np.sin(2.0 * math.pi * t_s / self.periods + self.phases)))
 
 
-@register_effect
 class ThermalLag(Effect):
     """A slow thermal mode: ``strength`` (0..1) of the steady rise arrives with ``time_constant_s``.
 
@@ -96,6 +97,7 @@ class ThermalLag(Effect):
     """
 
     name = "thermal_lag"
+    demo_strength = 0.035
     parameters = {"time_constant_s": 5.0}
 
     def __init__(self, strength: float, **params: float) -> None:
@@ -134,11 +136,11 @@ class ThermalLag(Effect):
         return {"strength": self.strength, "slow_rise_K": self._slow, "target_rise_K": self._target}
 
 
-@register_effect
 class BaselineDrift(Effect):
     """The PSD zero wanders by ``strength`` volts rms (a smooth random drift, see the module doc)."""
 
     name = "baseline_drift"
+    demo_strength = 0.009
     parameters = {"seed": 0.0, "period_min_s": 1800.0, "period_max_s": 14400.0}
 
     def __init__(self, strength: float, **params: float) -> None:
@@ -149,13 +151,13 @@ class BaselineDrift(Effect):
         return volts + self.strength * self._drift(moment.t_s)
 
 
-@register_effect
 class GainDrift(Effect):
     """The PSD's sensitivity wanders by ``strength`` (relative, rms): the signal about the sensor's zero
     (``psd_offset_V``, the PSD output at zero deflection) is scaled by ``1 + strength d(t)``, ``d`` a smooth
     random drift of unit rms (see the module doc)."""
 
     name = "gain_drift"
+    demo_strength = 0.004
     parameters = {"seed": 0.0, "period_min_s": 1800.0, "period_max_s": 14400.0}
 
     def __init__(self, strength: float, **params: float) -> None:
@@ -170,7 +172,6 @@ class GainDrift(Effect):
         return self._zero_V + (volts - self._zero_V) * (1.0 + self.strength * self._drift(moment.t_s))
 
 
-@register_effect
 class AmbientDrift(Effect):
     """The package temperature wanders by ``strength`` kelvin rms around ``sim.ambient_C``.
 
@@ -185,6 +186,7 @@ class AmbientDrift(Effect):
     """
 
     name = "ambient_drift"
+    demo_strength = 0.046
     parameters = {"seed": 0.0, "period_min_s": 1800.0, "period_max_s": 14400.0}
 
     def __init__(self, strength: float, **params: float) -> None:
@@ -202,7 +204,6 @@ class AmbientDrift(Effect):
         return volts + p.equivalent_voltage(moment.rise_K + shift) - p.equivalent_voltage(moment.rise_K)
 
 
-@register_effect
 class JoulePower(Effect):
     """Thermal expansion in proportion to the beam's temperature rise: ``strength`` um per kelvin.
 
@@ -212,12 +213,12 @@ class JoulePower(Effect):
     """
 
     name = "joule_power"
+    demo_strength = 0.093
 
     def deflection(self, um: float, moment: Moment) -> float:
         return um + self.strength * moment.rise_K
 
 
-@register_effect
 class Creep(Effect):
     """Relaxation after each reversal: ``strength`` um per volt of the excursion just ended.
 
@@ -230,6 +231,7 @@ class Creep(Effect):
     """
 
     name = "creep"
+    demo_strength = 0.06
     parameters = {"time_constant_s": 60.0, "stretch": 0.5}
 
     def __init__(self, strength: float, **params: float) -> None:
@@ -267,7 +269,6 @@ class Creep(Effect):
         return {"strength": self.strength, "reversals": len(self._events)}
 
 
-@register_effect
 class SensorNonlinearity(Effect):
     """A saturating PSD: ``c + V_s tanh((psd - c) / V_s)`` with ``V_s = 1 / strength`` volts.
 
@@ -277,8 +278,46 @@ class SensorNonlinearity(Effect):
     """
 
     name = "sensor_nonlinearity"
+    demo_strength = 0.24
     parameters = {"centre_V": 0.0}
 
     def psd(self, volts: float, moment: Moment) -> float:
         s, c = self.strength, self.centre_V
         return c + math.tanh((volts - c) * s) / s
+
+
+#: The simulated device's effects, in the order ``[sim.effects]`` lists them: the registry (one line per effect).
+SIM_EFFECT_CLASSES: tuple[type[Effect], ...] = (ThermalLag, BaselineDrift, GainDrift, AmbientDrift, JoulePower, Creep,
+                                                SensorNonlinearity)
+#: The effects by name (:data:`SIM_EFFECT_CLASSES`, read at each use).
+EFFECTS: ByName[type[Effect]] = ByName(lambda: SIM_EFFECT_CLASSES)
+
+
+def make_effects(table: dict[str, Any], registry: dict[str, type[Effect]] | None = None) -> list[Effect]:
+    """Effects from the ``[sim.effects]`` table: ``name = strength`` or ``[sim.effects.name]``.
+
+    A zero strength leaves the effect off.  Raises :class:`ValueError`
+    naming the key for an unknown effect or parameter.
+    """
+    registry = EFFECTS if registry is None else registry
+    out: list[Effect] = []
+    for name, spec in table.items():
+        if name not in registry:
+            known = ", ".join(sorted(registry)) or "none yet"
+            raise ValueError(f"unknown effect 'sim.effects.{name}' (available: {known})")
+        cls = registry[name]
+        if isinstance(spec, dict):
+            params = dict(spec)
+            if "strength" not in params:
+                raise ValueError(f"missing key 'sim.effects.{name}.strength'")
+            strength = params.pop("strength")
+        else:
+            strength, params = spec, {}
+        for key, value in [("strength", strength), *params.items()]:
+            if key != "strength" and key not in cls.parameters:
+                raise ValueError(f"unknown key 'sim.effects.{name}.{key}'")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"key 'sim.effects.{name}.{key}' must be a finite number")
+        if strength:
+            out.append(cls(strength, **params))
+    return out

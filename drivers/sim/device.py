@@ -43,7 +43,8 @@ from ..clock import VirtualClock
 from ..configschema import as_dict
 from ..errors import SetpointRefused
 from ..protocols import Clock
-from .effects import Effect, Moment, make_effects
+from .builtin_effects import make_effects
+from .effects import Effect, Moment
 from .faults import FaultPlan
 from .params import SimParams
 from .transition import transition_density

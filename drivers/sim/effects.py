@@ -17,11 +17,12 @@ detection), :meth:`Effect.bind` once with the device's parameters, and
 is off unless its name appears in ``[sim.effects]`` with a non-zero
 strength.
 
-The built-in effects (``thermal_lag``, ``baseline_drift``, ``ambient_drift``,
-``joule_power``, ``creep``, ``sensor_nonlinearity``) are in
-:mod:`drivers.sim.builtin_effects`.  To add one::
+The effects (``thermal_lag``, ``baseline_drift``, ``ambient_drift``,
+``joule_power``, ``creep``, ``sensor_nonlinearity``, ``gain_drift``) are in
+:mod:`drivers.sim.builtin_effects`, with their registry, the tuple
+:data:`~drivers.sim.builtin_effects.SIM_EFFECT_CLASSES`.  To add one, write
+its class and add it to that tuple::
 
-    @register_effect
     class JoulePower(Effect):
         name = "joule_power"
         parameters = {}                       # extra keys and their defaults
@@ -70,6 +71,9 @@ class Effect:
     parameters: ClassVar[dict[str, float]] = {}
     #: Longest step (s) the device may take without calling the hooks again.
     max_step_s: float = math.inf
+    #: The strength ``rig demo`` switches it on with: a gap about ten times the noise on the default bench
+    #: (``benchmarks/diagnose_bench.py`` calibrates it; rounded).
+    demo_strength: ClassVar[float] = 0.0
 
     def __init__(self, strength: float, **params: float) -> None:
         self.strength = float(strength)
@@ -109,45 +113,3 @@ class Effect:
     def state(self) -> dict[str, Any]:
         """Internal state, for tests and inspection (JSON-safe)."""
         return {"strength": self.strength}
-
-
-#: Effects by name (filled by :func:`register_effect`).
-EFFECTS: dict[str, type[Effect]] = {}
-
-
-def register_effect(cls: type[Effect]) -> type[Effect]:
-    """Class decorator: make ``cls`` available in ``[sim.effects]`` under ``cls.name``."""
-    if not cls.name:
-        raise ValueError(f"{cls.__name__} has no name")
-    EFFECTS[cls.name] = cls
-    return cls
-
-
-def make_effects(table: dict[str, Any], registry: dict[str, type[Effect]] | None = None) -> list[Effect]:
-    """Effects from the ``[sim.effects]`` table: ``name = strength`` or ``[sim.effects.name]``.
-
-    A zero strength leaves the effect off.  Raises :class:`ValueError`
-    naming the key for an unknown effect or parameter.
-    """
-    registry = EFFECTS if registry is None else registry
-    out: list[Effect] = []
-    for name, spec in table.items():
-        if name not in registry:
-            known = ", ".join(sorted(registry)) or "none yet"
-            raise ValueError(f"unknown effect 'sim.effects.{name}' (available: {known})")
-        cls = registry[name]
-        if isinstance(spec, dict):
-            params = dict(spec)
-            if "strength" not in params:
-                raise ValueError(f"missing key 'sim.effects.{name}.strength'")
-            strength = params.pop("strength")
-        else:
-            strength, params = spec, {}
-        for key, value in [("strength", strength), *params.items()]:
-            if key != "strength" and key not in cls.parameters:
-                raise ValueError(f"unknown key 'sim.effects.{name}.{key}'")
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ValueError(f"key 'sim.effects.{name}.{key}' must be a finite number")
-        if strength:
-            out.append(cls(strength, **params))
-    return out

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..configschema import setting
-from .effects import make_effects
+from .builtin_effects import make_effects
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -9,7 +9,6 @@ Pure numerics, one module per job:
 * :mod:`~identify.diagnosis.candidates` -- the candidate augmentations (one per effect);
 * :mod:`~identify.diagnosis.resolution` -- the same model on a finer grid, as a candidate;
 * :mod:`~identify.diagnosis.noise` -- the noise floor;
-* :mod:`~identify.diagnosis.scoring` -- blocked cross-validation and the block bootstrap;
 * :mod:`~identify.diagnosis.binning` -- the residual bins ("where");
 * :mod:`~identify.diagnosis.verdict` -- the decision rule;
 * :mod:`~identify.diagnosis.engine` -- :func:`diagnose`, tying them together.

@@ -33,6 +33,7 @@ import numpy as np
 from ..errors import IdentifyError, MethodNotApplicable
 from ..grid import Grid
 from ..methods import Problem, make_method
+from ..methods.triangle_penalty import dense_roughness_matrix
 from ..model import PreisachModel
 from ..regressor import regressor_matrix
 from ..runs import Run
@@ -143,8 +144,6 @@ def _pinv(a: np.ndarray) -> tuple[np.ndarray, int]:
 def _penalised(grid: Grid, x: np.ndarray, free: np.ndarray, weight: float) -> tuple[np.ndarray, int]:
     """``smooth_nn``'s smoother on its free set: ``(X_F^T X_F + lam R_FF)^-1 X_F^T`` and its trace
     (rounded), ``R`` the roughness penalty of the cells (``mu0`` and ``c_d`` unpenalised)."""
-    from ..methods.triangle_penalty import dense_roughness_matrix
-
     cells = grid.n_cells
     penalty = np.zeros((free.size, free.size))
     penalty[:cells, :cells] = dense_roughness_matrix(grid)

@@ -24,13 +24,14 @@ import numpy as np
 from ..effects import EFFECTS, Columns, Context, Effect, make_effect
 from ..effects.bases import spline_of
 from ..errors import IdentifyError
+from ..registry import ByName
 from .resolution import Resolution
 
 #: The effects, by name, in the effects' order (every registered effect is a candidate).
-CANDIDATES: dict[str, type[Effect]] = dict(EFFECTS)
+CANDIDATES: ByName[type[Effect]] = EFFECTS
 #: Every candidate's name: the effects, then ``resolution`` (the same model on a finer grid, which the
 #: diagnosis builds for its runs: :mod:`~identify.diagnosis.resolution`).
-NAMES: tuple[str, ...] = (*CANDIDATES, Resolution.name)
+NAMES: ByName[Any] = ByName(lambda: (*EFFECTS.values(), Resolution))
 #: Candidates are the effects (and the resolution candidate); the name is kept for the diagnosis's vocabulary.
 Candidate = Effect
 

@@ -6,7 +6,7 @@ the check runs, and asks of the check residual (``model - measured``):
 * **where** -- the residual binned by input, branch, time since reversal,
   last step, predicted output and session time (:mod:`~identify.diagnosis.binning`);
 * **which** -- every candidate of the library fitted jointly with the base
-  model and scored on held-out check blocks (:mod:`~identify.diagnosis.scoring`),
+  model and scored on held-out check blocks (:mod:`~identify.cross_validation`),
   ranked by the held-out improvement with a block-bootstrap interval, and
   the verdict (:mod:`~identify.diagnosis.verdict`);
 * **how far** -- baseline held-out RMSE, RMSE with each candidate, shrink
@@ -21,21 +21,24 @@ runs on different grids) are listed in :attr:`Diagnosis.warnings` or
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 import numpy as np
 
-from ..effects import INPUT, Columns, Context
+from ..effects import INPUT, Columns, Context, EffectNotIdentifiable, make_effect
+from ..effects.joint import context_of, fit_with_effects
 from ..errors import IdentifyError, MethodNotApplicable
 from ..grid import Grid
 from ..runs import Run
+from ..validation import validate_run
 from .base import BaseFit, fit_base, uncertain_directions
 from .binning import Binning, bin_residuals
 from .candidates import Candidate, library
 from .noise import NoiseEstimate, estimate_noise, fit_residual_bound, floor_per_point
 from .resolution import Resolution
-from .scoring import Blocks, Design, bootstrap_mse, coefficients_without, cross_validate, make_blocks, onehot
+from ..cross_validation import Blocks, Design, bootstrap_mse, coefficients_without, cross_validate, make_blocks, onehot
 from .verdict import Evidence, Verdict
 
 #: Fraction of the scored range within which an input counts as inside the grid.
@@ -294,8 +297,6 @@ def _relinearised(cand: Candidate, base: BaseFit, ctx: Context, scored: _Scored,
     (the small steps, unconstrained: they go either way from the fit) are cross-validated like any
     candidate; the predictions of the other half's blocks are kept.  ``(m,)``.
     """
-    from ..effects.joint import context_of
-
     blocks = scored.blocks
     prediction = np.zeros_like(gap)
     for half in (0, 1):
@@ -649,12 +650,6 @@ def keep_model(grid: Grid, fit_runs: tuple[Run, ...], check_runs: tuple[Run, ...
                names: tuple[str, ...], settings: DiagnosisSettings, thermal_term: bool, base_rmse: float) -> KeptModel:
     """:class:`KeptModel` for ``names``: the joint fit on the identification runs, scored on ``rows`` of
     each check run."""
-    import time
-
-    from ..effects import EffectNotIdentifiable, make_effect
-    from ..effects.joint import fit_with_effects
-    from ..validation import validate_run
-
     start = time.perf_counter()
     try:
         joint = fit_with_effects(grid, fit_runs, settings.method, [make_effect(n) for n in names],

@@ -23,7 +23,10 @@ name                  stage    what it is
 ``first_point``       output   the first reading after a reversal differs systematically
 ===================== ======== ==============================================================
 
-Effects are named on the command line as ``NAME[:OPTION]`` (``reversible:monotone``).
+Effects are named on the command line as ``NAME[:OPTION]`` (``reversible:monotone``).  Each effect's class
+carries what the rest of the program asks of it -- its options, what a run must record
+(:attr:`Effect.must_record`), how the inversion takes it (:attr:`Effect.inversion`) -- so adding one is its
+module and one line in :data:`EFFECT_CLASSES`.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from __future__ import annotations
 from typing import Any, Iterable
 
 from ..errors import IdentifyError
+from ..registry import ByName
 from .ambient_drift import AmbientDrift
 from .base import (INPUT, OUTPUT, SENSOR, Columns, Context, Effect, EffectNotApplicable, EffectNotIdentifiable)
 from .baseline_drift import BaselineDrift
@@ -43,21 +47,17 @@ from .reversible import Reversible
 from .sensor_nonlinearity import SensorNonlinearity
 from .thermal_lag import ThermalLag
 
-#: The effects, by name, in the diagnosis library's order.
-EFFECTS: dict[str, type[Effect]] = {
-    cls.name: cls
-    for cls in (ThermalLag, BaselineDrift, AmbientDrift, GainDrift, JoulePower, Creep, SensorNonlinearity,
-                Reversible, Interaction, FirstPoint)
-}
-#: Options an effect accepts after a colon on the command line.
-OPTIONS: dict[str, tuple[str, ...]] = {"reversible": ("monotone",), "thermal_lag": ("dominant",)}
-#: Order of the input stage (what the memory curve sees is transformed in this order).
-INPUT_ORDER = ("thermal_lag", "ambient_drift", "interaction")
+#: The effects, in the diagnosis library's order, which is also the order the input stage transforms the
+#: heater voltage in (thermal lag, ambient drift, interaction): the registry (one line per effect).
+EFFECT_CLASSES: tuple[type[Effect], ...] = (ThermalLag, BaselineDrift, AmbientDrift, GainDrift, JoulePower, Creep,
+                                            SensorNonlinearity, Reversible, Interaction, FirstPoint)
+#: The effects by name (:data:`EFFECT_CLASSES`, read at each use).
+EFFECTS: ByName[type[Effect]] = ByName(lambda: EFFECT_CLASSES)
 
 
 def spellings() -> str:
     """Every effect as ``--with`` accepts it (``name`` or ``name[:option]``), comma-separated, from the registry."""
-    return ", ".join(f"{n}[:{'|'.join(OPTIONS[n])}]" if n in OPTIONS else n for n in EFFECTS)
+    return ", ".join(f"{n}[:{'|'.join(cls.options)}]" if cls.options else n for n, cls in EFFECTS.items())
 
 
 def _unknown(name: str) -> IdentifyError:
@@ -70,7 +70,7 @@ def make_effect(spec: str) -> Effect:
     if name not in EFFECTS:
         raise _unknown(name)
     if option:
-        allowed = OPTIONS.get(name, ())
+        allowed = EFFECTS[name].options
         if option not in allowed:
             what = f"options {', '.join(allowed)}" if allowed else "no options"
             raise IdentifyError(f"effect {name!r} has {what}, not {option!r}")
@@ -109,19 +109,21 @@ def effect_to_dict(effect: Effect) -> dict[str, Any]:
 
 
 def pipeline_order(effects: Iterable[Effect]) -> list[Effect]:
-    """``effects`` in the order they act: the input stage (thermal lag, ambient drift, interaction), the
-    output stage, the sensor stage."""
+    """``effects`` in the order they act: the input stage (in :data:`EFFECT_CLASSES`' order: thermal lag,
+    ambient drift, interaction), the output stage, the sensor stage."""
     effects = list(effects)
     rank = {INPUT: 0, OUTPUT: 1, SENSOR: 2}
+    order = {cls.name: k for k, cls in enumerate(EFFECT_CLASSES)}
 
     def key(e: Effect) -> tuple[int, int]:
-        return rank[e.stage], INPUT_ORDER.index(e.name) if e.name in INPUT_ORDER else 0
+        return rank[e.stage], order.get(e.name, len(order)) if e.stage == INPUT else 0
 
     return sorted(effects, key=key)
 
 
 __all__ = [
     "EFFECTS",
+    "EFFECT_CLASSES",
     "INPUT",
     "OUTPUT",
     "SENSOR",

@@ -56,6 +56,9 @@ class AmbientDrift(Effect):
     summary = "the room temperature drifts, shifting where the transition happens (on the input)"
     stage = INPUT
     per_run = True
+    must_record = (needs_heater, needs_time)
+    #: On a run it was not fitted on it is unknown and changes nothing.
+    inversion = "inert"
     absolute = True
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
@@ -70,9 +73,6 @@ class AmbientDrift(Effect):
     @property
     def form(self) -> str:
         return (self.params or {}).get("form", "shift")
-
-    def applicable(self, runs: tuple[Run, ...]) -> str | None:
-        return needs_heater(runs) or needs_time(runs)
 
     def settings_grid(self) -> list[dict[str, float]]:
         return [s for f in FORMS for s in drift_settings(form=f)]

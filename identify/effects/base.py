@@ -38,19 +38,45 @@ from __future__ import annotations
 
 from abc import ABC
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, ClassVar
+from typing import Any, Callable, ClassVar, Protocol
 
 import numpy as np
 
 from ..errors import IdentifyError
+from ..forward import Equation22
 from ..grid import Grid
+from ..memory import InitialState
 from ..runs import Run
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..model import PreisachModel
 
 INPUT, OUTPUT, SENSOR = "input", "output", "sensor"
 STAGES = (INPUT, OUTPUT, SENSOR)
+
+#: How the inversion (:mod:`identify.inverse`) can take a fitted effect (:attr:`Effect.inversion`):
+#: ``static`` a function of the set-point alone, a polynomial of degree :attr:`Effect.static_degree` between
+#: :meth:`Effect.static_breakpoints_V`, read from :meth:`Effect.contribution`; ``offset`` a known offset at
+#: each step for each direction of the move (affine in this step's output), read from
+#: :meth:`Effect.contribution` on the history plus the candidate point; ``lag`` the set-point reaches the
+#: hysterons through slow thermal modes (parameters ``drive``, ``time_constants_s``, ``fractions``), in
+#: closed form at a step's dwell; ``feedback`` the hysterons feel ``v + k u`` (parameter ``k``);
+#: ``sensor`` a monotone map of the deflection (:meth:`Effect.sense`), inverted first; ``inert`` it changes
+#: nothing on the run being inverted.
+INVERSIONS = ("static", "offset", "lag", "feedback", "sensor", "inert")
+
+
+class HostModel(Equation22, Protocol):
+    """What an effect reads of the model it acts beside: equation (22)'s parameters, the fitted effects it
+    carries and its prediction.  A :class:`identify.model.PreisachModel` is one; the effects stand below
+    the model (which acts with them on a run, :mod:`identify.effects.compose`) and know it by this shape."""
+
+    @property
+    def effects(self) -> tuple["Effect", ...]: ...
+
+    def predict(self, inputs: np.ndarray, initial: InitialState = "negative",
+                history: np.ndarray | None = None) -> np.ndarray:
+        """Equation (22)'s output (um) for an input sequence (V), ``(n,)``, the effects left out."""
+
+    def without_effects(self) -> "HostModel":
+        """This model's equation (22) part."""
 
 
 class EffectNotIdentifiable(IdentifyError):
@@ -102,7 +128,7 @@ class Context:
     """
 
     grid: Grid
-    model: "PreisachModel"
+    model: "HostModel"
     runs: tuple[Run, ...]
     inputs: tuple[np.ndarray, ...]
     thermal: tuple[np.ndarray, ...]
@@ -111,7 +137,7 @@ class Context:
     output_centre: float
     output_half_range: float
     #: ``x -> sum mu_ij s_ij(x) + mu0`` for ``model`` (the thermal term left out), ``(n,)`` -> ``(n,)``;
-    #: None: :meth:`PreisachModel.predict`.  The joint fit passes a cached one.
+    #: None: :meth:`HostModel.predict`.  The joint fit passes a cached one.
     hysteresis: Callable[[np.ndarray], np.ndarray] | None = None
     #: Per run ``(n_i,)``: equation (22)'s part of the output (before the output effects); None: ``predictions``.
     bare: tuple[np.ndarray, ...] | None = None
@@ -121,7 +147,7 @@ class Context:
         return self.predictions[i] if self.bare is None else self.bare[i]
 
     @classmethod
-    def of_model(cls, model: "PreisachModel", runs: tuple[Run, ...] | list[Run], n_fit: int | None = None) -> "Context":
+    def of_model(cls, model: "HostModel", runs: tuple[Run, ...] | list[Run], n_fit: int | None = None) -> "Context":
         """The context of an equation (22) model without effects: the inputs are the heater voltages.
 
         ``n_fit`` (default: all) is how many leading runs are identification
@@ -146,7 +172,7 @@ class Context:
         return part + m.c_d * np.asarray(th, dtype=float)
 
 
-def start_of(model: "PreisachModel", initial_V: float) -> tuple[float, float]:
+def start_of(model: "HostModel", initial_V: float) -> tuple[float, float]:
     """Equation (22)'s output and its phase-transition part (um) at a run's initial state: the memory in
     negative saturation, the input risen to ``initial_V`` (V) and at rest there (the sequencer saturates
     at 0 V before the first point, and the first point's change is counted from there)."""
@@ -185,6 +211,18 @@ class Effect(ABC):
     #: The name of a more general effect this one is a special case of (None): when both explain a gap
     #: equally well, the diagnosis names the special case -- fewer terms, the same physics.
     within: ClassVar[str | None] = None
+    #: Options it accepts after a colon on the command line (``reversible:monotone``): keyword arguments of
+    #: its constructor, set True.
+    options: ClassVar[tuple[str, ...]] = ()
+    #: What a run must record for it to act on the run: checks ``runs -> why not`` (None: recorded), such as
+    #: :func:`needs_time` (time stamps), :func:`needs_dwell` (dwells), :func:`needs_heater` (a heater
+    #: voltage); :meth:`applicable` asks them in turn.
+    must_record: ClassVar[tuple[Callable[[tuple[Run, ...]], str | None], ...]] = ()
+    #: How the inversion takes it, one of :data:`INVERSIONS`; None: it cannot be inverted exactly
+    #: (:meth:`inversion_refused` says why).
+    inversion: ClassVar[str | None] = None
+    #: (``static`` inversion) The degree of its polynomial of the set-point between breakpoints.
+    static_degree: ClassVar[int] = 0
 
     def __init__(self, params: dict[str, Any] | None = None) -> None:
         self.params = None if params is None else self.check_params(dict(params))
@@ -198,7 +236,12 @@ class Effect(ABC):
 
     # ------------------------------------------------------------ what runs must record
     def applicable(self, runs: tuple[Run, ...]) -> str | None:
-        """Why this effect cannot act on these runs at all (None: it can): a run lacks what it needs."""
+        """Why this effect cannot act on these runs at all (None: it can): a run lacks what it needs
+        (the first of :attr:`must_record` that says so)."""
+        for missing in self.must_record:
+            why = missing(runs)
+            if why is not None:
+                return why
         return None
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
@@ -255,6 +298,20 @@ class Effect(ABC):
     def bounds(self) -> dict[str, float]:
         """Largest plausible ``|coefficient|`` by label, where physics bounds it (the diagnosis's visibility test)."""
         return {}
+
+    # ------------------------------------------------------------ how it is inverted (fitted)
+    def inverted_as(self) -> str | None:
+        """How the inversion takes this fitted instance (default :attr:`inversion`); an instance whose
+        parameters make it change nothing may say ``"inert"``."""
+        return self.inversion
+
+    def inversion_refused(self) -> str | None:
+        """Why this fitted instance cannot be inverted exactly (None: it can, as :meth:`inverted_as` says)."""
+        return None if self.inverted_as() is not None else "this inversion does not know how it acts"
+
+    def static_breakpoints_V(self) -> list[float]:
+        """(``static`` inversion) Where its polynomial of the set-point changes (V); none by default."""
+        return []
 
     # ------------------------------------------------------------ acting on a run (fitted)
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
@@ -327,6 +384,13 @@ def needs_time(runs: tuple[Run, ...]) -> str | None:
     untimed = [r.name for r in runs if not r.timed]
     if untimed:
         return f"it acts over time, and {', '.join(untimed)} record(s) no time (all time stamps equal)"
+    return None
+
+
+def needs_dwell(runs: tuple[Run, ...]) -> str | None:
+    """Not applicable when no run records its dwells (set-point to readings): what a lag acts over."""
+    if not any(r.has_dwell for r in runs):
+        return "no run records its dwell (set-point to readings), so there is nothing for a lag to act over"
     return None
 
 

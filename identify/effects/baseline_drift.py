@@ -27,14 +27,14 @@ class BaselineDrift(Effect):
     summary = "the sensor zero drifts over session time (laser pointing, mechanics)"
     stage = OUTPUT
     per_run = True
+    must_record = (needs_time,)
+    #: On a run it was not fitted on it is unknown and changes nothing.
+    inversion = "inert"
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         if not isinstance(params.get("runs"), dict):
             raise IdentifyError(f"effect {self.name!r} needs 'runs': {{run name: spline}}")
         return {"runs": params["runs"]}
-
-    def applicable(self, runs: tuple[Run, ...]) -> str | None:
-        return needs_time(runs)
 
     def settings_grid(self) -> list[dict[str, float]]:
         return drift_settings()

@@ -30,18 +30,17 @@ constant.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
-from typing import TYPE_CHECKING, Iterable
+from dataclasses import dataclass
+from typing import Iterable
 
 import numpy as np
 
+from ..forward import HysteresisState
+from ..grid import Grid
 from ..runs import Run
 from . import pipeline_order
-from .base import INPUT, OUTPUT, SENSOR, Effect, EffectNotApplicable, start_of
-from .interaction import Interaction
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..model import PreisachModel
+from .base import INPUT, OUTPUT, SENSOR, Effect, EffectNotApplicable, HostModel, start_of
+from .interaction import Interaction, felt
 
 
 def check_applicable(effects: Iterable[Effect], run: Run) -> None:
@@ -53,13 +52,11 @@ def check_applicable(effects: Iterable[Effect], run: Run) -> None:
 
 
 def hysteron_inputs(effects: Iterable[Effect], run: Run, feedback: np.ndarray | None = None,
-                    model: "PreisachModel | None" = None) -> tuple[np.ndarray, np.ndarray]:
+                    model: "HostModel | None" = None) -> tuple[np.ndarray, np.ndarray]:
     """``(x, thermal)`` ``(n,)`` each: what the memory curve sees and what the thermal term multiplies.
 
     ``feedback`` is the output the hysterons feel (needed with ``interaction``; ``model``'s bias and
     thermal term are taken off it when they feel only the phase-transition part)."""
-    from .interaction import felt
-
     x = run.inputs
     thermal = run.inputs
     for e in pipeline_order(effects):
@@ -74,9 +71,9 @@ def hysteron_inputs(effects: Iterable[Effect], run: Run, feedback: np.ndarray | 
     return x, thermal
 
 
-def preisach_output(model: "PreisachModel", x: np.ndarray, thermal: np.ndarray) -> np.ndarray:
+def preisach_output(model: HostModel, x: np.ndarray, thermal: np.ndarray) -> np.ndarray:
     """Equation (22)'s output (um) with hysterons' input ``x`` and the thermal term on ``thermal``."""
-    bare = replace(model, effects=()) if model.effects else model
+    bare = model.without_effects()
     return bare.predict(x) + bare.c_d * (np.asarray(thermal, dtype=float) - np.asarray(x, dtype=float))
 
 
@@ -105,7 +102,7 @@ def sensed(effects: Iterable[Effect], u: np.ndarray) -> np.ndarray:
     return u
 
 
-def deflection(model: "PreisachModel", run: Run, effects: Iterable[Effect] | None = None,
+def deflection(model: HostModel, run: Run, effects: Iterable[Effect] | None = None,
                feedback: np.ndarray | None = None) -> np.ndarray:
     """The output before the sensor stage (um), ``(n,)``.  ``feedback``: the output the hysterons feel
     (with ``interaction``); None solves the fixed point (prediction)."""
@@ -126,7 +123,7 @@ def deflection(model: "PreisachModel", run: Run, effects: Iterable[Effect] | Non
                                              start=start_of(model, run.initial_V))
 
 
-def predict_run(model: "PreisachModel", run: Run, effects: Iterable[Effect] | None = None) -> np.ndarray:
+def predict_run(model: HostModel, run: Run, effects: Iterable[Effect] | None = None) -> np.ndarray:
     """The model's reading (um) at every point of ``run``, ``(n,)``, from negative saturation.
 
     Raises :class:`EffectNotApplicable` when the run lacks what an effect needs.
@@ -136,7 +133,7 @@ def predict_run(model: "PreisachModel", run: Run, effects: Iterable[Effect] | No
     return sensed(effects, deflection(model, run, effects))
 
 
-def contributions(model: "PreisachModel", run: Run) -> dict[str, np.ndarray]:
+def contributions(model: HostModel, run: Run) -> dict[str, np.ndarray]:
     """Each effect's contribution to the reading (um), ``(n,)`` each: the prediction minus the prediction
     with that effect left out (the others kept)."""
     full = predict_run(model, run)
@@ -148,13 +145,20 @@ def contributions(model: "PreisachModel", run: Run) -> dict[str, np.ndarray]:
 
 
 # ---------------------------------------------------------------- the mean-field fixed point
-def _fixed_point(model: "PreisachModel", a: np.ndarray, b: np.ndarray, k: float, drive: str = "voltage") -> np.ndarray:
+@dataclass(frozen=True)
+class _Hysterons:
+    """Equation (22)'s Preisach part alone (no bias, no thermal term): ``P`` of the fixed point."""
+
+    grid: Grid
+    density: np.ndarray
+    mu0: float = 0.0
+    c_d: float = 0.0
+
+
+def _fixed_point(model: HostModel, a: np.ndarray, b: np.ndarray, k: float, drive: str = "voltage") -> np.ndarray:
     """``u = b + P(x)`` with ``x = a + k u`` (``x^2 = a^2 + k u`` for ``drive="power"``) at every point,
     the memory stepped point by point."""
-    from ..forward import HysteresisState
-
-    bare = replace(model, mu0=0.0, c_d=0.0, effects=())
-    state = HysteresisState(bare)
+    state = HysteresisState(_Hysterons(model.grid, model.density))
     grid = model.grid
     walls = grid.walls
     x = grid.v_min  # negative saturation: the input at or below the lowest wall

@@ -163,6 +163,14 @@ class Creep(Effect):
     name = "creep"
     summary = "the deflection relaxes slowly after the output changes"
     stage = OUTPUT
+    must_record = (needs_time,)
+    inversion = "offset"
+
+    def inversion_refused(self) -> str | None:
+        if (self.params or {}).get("drive") in EXCURSION_DRIVES:
+            return ("driven by the excursion since the last reversal, its value at a reversal point depends on the "
+                    "set-point after it (which makes the point a reversal); an inversion cannot know that in advance")
+        return None
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         taus = finite_array(params, "time_constants_s", self.name)
@@ -177,9 +185,6 @@ class Creep(Effect):
     @property
     def needs_output(self) -> bool:
         return bool(self.params and self.params["drive"] != "reversal")
-
-    def applicable(self, runs: tuple[Run, ...]) -> str | None:
-        return needs_time(runs)
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         return self.applicable(runs) or needs_reversals(runs, "it relaxes after the output changes direction")

@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite, finite_array, needs_reversals, single_columns
@@ -91,6 +92,10 @@ class FirstPoint(Effect):
     summary = "the first reading after a reversal differs systematically (a first-point artefact)"
     stage = OUTPUT
 
+    def inversion_refused(self) -> str | None:
+        return ("its offset after a turn grows with the reversing step through a saturating exponential, which no "
+                "polynomial piece holds")
+
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         decay = finite(params, "decay", self.name) if "decay" in params else 0.0
         cell = finite(params, "cell", self.name) if "cell" in params else 1.0
@@ -98,8 +103,6 @@ class FirstPoint(Effect):
         if coef.size in (6, 7):  # written before the saturating term, or before the unsigned sizes
             coef = np.append(coef, np.zeros(len(LABELS) - coef.size))
         if coef.size != len(LABELS) or cell <= 0:
-            from ..errors import IdentifyError
-
             raise IdentifyError(f"effect {self.name!r}: needs {len(LABELS)} coefficients_um and cell > 0")
         return {"coefficients_um": coef.tolist(), "terms": list(LABELS), "decay": decay, "cell": cell}
 

@@ -36,6 +36,9 @@ class GainDrift(Effect):
     summary = "the sensor's sensitivity drifts over session time (laser power, alignment)"
     stage = OUTPUT
     per_run = True
+    must_record = (needs_time,)
+    #: On a run it was not fitted on it is unknown and changes nothing.
+    inversion = "inert"
     needs_output = True
     from_base = True
 
@@ -43,9 +46,6 @@ class GainDrift(Effect):
         if not isinstance(params.get("runs"), dict):
             raise IdentifyError(f"effect {self.name!r} needs 'runs': {{run name: spline}}")
         return {"runs": params["runs"]}
-
-    def applicable(self, runs: tuple[Run, ...]) -> str | None:
-        return needs_time(runs)
 
     def settings_grid(self) -> list[dict[str, float]]:
         return drift_settings()

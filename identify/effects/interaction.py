@@ -48,6 +48,7 @@ class Interaction(Effect):
     name = "interaction"
     summary = "mean-field interaction: the hysterons feel the output as well as the input (x = v + k u)"
     stage = INPUT
+    inversion = "feedback"
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         require_params(params, ("k",), self.name)
@@ -72,6 +73,17 @@ class Interaction(Effect):
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         return needs_reversals(runs, "mean-field feedback shows only where the input turns back")
+
+    def inverted_as(self) -> str | None:
+        """``feedback`` (``x = v + k u``: find ``x`` for the target, then ``v = x - k u``); ``inert`` at ``k = 0``."""
+        return "inert" if self.k == 0.0 else self.inversion
+
+    def inversion_refused(self) -> str | None:
+        p = self.params or {}
+        if self.inverted_as() == "inert" or (self.drive == "voltage" and self.source == "output"):
+            return None
+        return (f"driven by {p.get('drive')} and felt through the {p.get('source')}, the hysterons' input is not a "
+                "polynomial of the set-point on a piece (only drive 'voltage' with source 'output' is inverted exactly)")
 
     def settings_grid(self) -> list[dict[str, float]]:
         return [{"drive": d, "source": s, "sign": g} for d in DRIVES for s in SOURCES for g in (1.0, -1.0)]

@@ -30,14 +30,15 @@ class JoulePower(Effect):
     stage = OUTPUT
     #: A special case of this effect (the diagnosis prefers it when both explain as well).
     within = "reversible"
+    must_record = (needs_heater,)
+    #: ``a v^2 + b v^4`` of the set-point.
+    inversion = "static"
+    static_degree = 4
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         require_params(params, ("um_per_V2",), self.name)
         return {"um_per_V2": finite(params, "um_per_V2", self.name),
                 "um_per_V4": finite(params, "um_per_V4", self.name) if "um_per_V4" in params else 0.0}
-
-    def applicable(self, runs: tuple[Run, ...]) -> str | None:
-        return needs_heater(runs)
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         return self.applicable(runs) or needs_off_wall(runs, grid, self.name)

@@ -4,9 +4,9 @@ A drift (``baseline_drift``, ``ambient_drift``) belongs to the run it was
 fitted on; a model knows nothing of another run's.  To validate such a
 model honestly on another run, that run's own drift is estimated from the
 run itself without letting any point judge itself: the run's measured
-points are cut into contiguous blocks (:func:`identify.diagnosis.scoring.make_blocks`),
+points are cut into contiguous blocks (:func:`identify.cross_validation.make_blocks`),
 and each block is predicted with a drift fitted on all the other blocks
-(:func:`identify.diagnosis.scoring.cross_validate`, the penalty weight
+(:func:`identify.cross_validation.cross_validate`, the penalty weight
 chosen by an inner cross-validation) -- exactly how the gap diagnosis
 scores a drift candidate.  Nothing else of the model is refitted.
 """
@@ -14,31 +14,28 @@ scores a drift candidate.  Nothing else of the model is refitted.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
+from ..cross_validation import Design, cross_validate, make_blocks
+from ..model import PreisachModel
 from ..runs import Run
 from .base import Effect
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..model import PreisachModel
+from .joint import context_of
 
 
-def unknown_nuisance(model: "PreisachModel", run: Run) -> list[Effect]:
+def unknown_nuisance(model: PreisachModel, run: Run) -> list[Effect]:
     """The model's per-run effects that do not know ``run`` (fitted on other runs)."""
     return [e for e in model.effects if e.per_run and run.name not in (e.params or {}).get("runs", {})]
 
 
-def held_out_prediction(model: "PreisachModel", run: Run) -> tuple[np.ndarray, dict[str, Any]]:
+def held_out_prediction(model: PreisachModel, run: Run) -> tuple[np.ndarray, dict[str, Any]]:
     """The model's reading at every point of ``run`` ``(n,)``, with its per-run effects that do not
     know the run re-estimated held out on the run's measured points; and what was done, by effect.
 
     Without such effects this is :meth:`PreisachModel.predict_run`.
     """
-    from ..diagnosis.scoring import Design, cross_validate, make_blocks
-    from .joint import context_of
-
     unknown = unknown_nuisance(model, run)
     prediction = model.predict_run(run)
     if not unknown:

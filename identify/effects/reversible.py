@@ -37,7 +37,6 @@ from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite_array, require_params
 from .bases import second_differences
 
-OPTIONS = ("monotone",)
 #: Weights of the roughness penalty (second differences of the values at the knots) the diagnosis tries.
 SMOOTHING = (0.01, 0.1, 1.0, 10.0)
 #: The weight when a model is fitted with it (``rig identify --with``): a light touch.
@@ -88,6 +87,10 @@ class Reversible(Effect):
     summary = "a reversible (anhysteretic) component: a smooth single-valued function of the input"
     stage = OUTPUT
     replaces_thermal_term = True
+    options = ("monotone",)
+    #: A cubic spline of the set-point between its walls.
+    inversion = "static"
+    static_degree = DEGREE
 
     def __init__(self, params: dict[str, Any] | None = None, *, monotone: bool = False) -> None:
         super().__init__(params)
@@ -100,6 +103,10 @@ class Reversible(Effect):
         if walls.size < 2 or np.any(np.diff(walls) <= 0) or inc.size != walls.size + DEGREE - 2:
             raise IdentifyError(f"effect {self.name!r}: 'walls' must rise, with {walls.size + DEGREE - 2} increments")
         return {"walls": walls.tolist(), "increments_um": inc.tolist(), "monotone": bool(params.get("monotone", False))}
+
+    def static_breakpoints_V(self) -> list[float]:
+        """The spline's knots: its walls (V)."""
+        return [float(k) for k in (self.params or {}).get("walls") or []]
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         return needs_off_wall(runs, grid, self.name)

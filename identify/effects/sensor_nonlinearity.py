@@ -44,6 +44,7 @@ class SensorNonlinearity(Effect):
     name = "sensor_nonlinearity"
     summary = "the sensor reading is a smooth nonlinear (e.g. saturating) function of the deflection"
     stage = SENSOR
+    inversion = "sensor"
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         require_params(params, ("knots_z", "coefficients_um", "centre_um", "half_range_um"), self.name)

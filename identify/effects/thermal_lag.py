@@ -44,11 +44,12 @@ import math
 from typing import Any
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
-from .base import INPUT, Columns, Context, Effect, finite_array, needs_heater, single_columns
+from .base import INPUT, Columns, Context, Effect, finite_array, needs_dwell, needs_heater, single_columns
 
 #: The modes' time constants (s): log-spaced from a fast beam to a slow package.
 TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(0.5, 300.0, 10))
@@ -66,8 +67,6 @@ SCAN_S = tuple(float(x) for x in np.geomspace(0.1, 100.0, 13))
 SAME_MODE = 0.2
 #: ``dominant``: Brent's tolerance on log(time constant).
 SCAN_TOL = 0.01
-#: Option (``thermal_lag:dominant``).
-OPTIONS = ("dominant",)
 
 
 def _drive(v: np.ndarray, drive: str) -> np.ndarray:
@@ -125,7 +124,10 @@ class ThermalLag(Effect):
     summary = "the dwell is too short for the thermal dynamics: the beam is measured short of its set-point"
     stage = INPUT
     drives_thermal_term = True
+    options = ("dominant",)
     absolute = True
+    must_record = (needs_heater, needs_dwell)
+    inversion = "lag"
 
     def __init__(self, params: dict[str, Any] | None = None, *, dominant: bool = False) -> None:
         super().__init__(params)
@@ -135,8 +137,6 @@ class ThermalLag(Effect):
         """(``dominant``) The start of the fit: see the module docstring; None without the option."""
         if not self.dominant or self.fitted:
             return None
-        from scipy.optimize import minimize_scalar
-
         best: tuple[float, str, float] | None = None
         for drive in ("power", "voltage"):
             cache: dict[float, float] = {}
@@ -171,14 +171,6 @@ class ThermalLag(Effect):
             raise IdentifyError(f"effect {self.name!r}: time_constants_s (> 0) and fractions must match, drive one of "
                                 f"{', '.join(DRIVES)}")
         return {"drive": drive, "time_constants_s": taus.tolist(), "fractions": fractions.tolist()}
-
-    def applicable(self, runs: tuple[Run, ...]) -> str | None:
-        heater = needs_heater(runs)
-        if heater is not None:
-            return heater
-        if not any(r.has_dwell for r in runs):
-            return "no run records its dwell (set-point to readings), so there is nothing for a lag to act over"
-        return None
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         why = self.applicable(runs)

@@ -5,7 +5,10 @@ output equals the target, piece by piece along the memory curve, and then
 for the heater voltage ``v`` that puts the hysterons there.  An effect can
 be inverted exactly when, at the step being solved, it adds a polynomial of
 ``x`` on each piece or maps ``x`` to ``v`` in closed form (see
-:mod:`identify.effects.base` for the stages):
+:mod:`identify.effects.base` for the stages).  Each effect says which
+treatment it takes (:attr:`~identify.effects.Effect.inversion`, one of
+:data:`~identify.effects.base.INVERSIONS`) or why it cannot be inverted
+(:meth:`~identify.effects.Effect.inversion_refused`); the effects so far:
 
 =======================  ======================================================================
 ``reversible``,          a function of the set-point alone, a polynomial between its breakpoints
@@ -33,7 +36,7 @@ reversal (its value at a reversal point depends on the next set-point), an
 interaction driven by heater power or felt
 through the phase transition alone, combinations whose pieces stop being
 polynomials (a lagged or interacting input with set-point or
-direction-dependent output effects), an effect this module does not know.
+direction-dependent output effects), an effect that names no treatment.
 """
 
 from __future__ import annotations
@@ -43,7 +46,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..effects import INPUT, OUTPUT, SENSOR, Effect
+from ..effects import Effect
+from ..effects.thermal_lag import mode_drives
 from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
@@ -55,16 +59,8 @@ class NotInvertible(IdentifyError):
 
 
 # ---------------------------------------------------------------- set-point functions (static)
-#: Degree of each static effect's polynomial between its breakpoints.
-STATIC_DEGREE = {"reversible": 3, "joule_power": 4}
 #: Relative error above which a fitted static polynomial is not the effect (its family changed).
 STATIC_CHECK = 1e-9
-
-
-def _breakpoints(effect: Effect) -> list[float]:
-    """Where a static effect's polynomial changes (V): ``reversible``'s walls (its cubic spline's knots); none for ``joule_power``."""
-    walls = (effect.params or {}).get("walls") if effect.name == "reversible" else None
-    return [float(k) for k in walls] if walls else []
 
 
 def probe_run(name: str, inputs, t_s=None, dwell_s=None, initial_V: float = 0.0) -> Run:
@@ -109,19 +105,19 @@ def static_part(effects: list[Effect], grid: Grid) -> StaticPart | None:
 
     Each interval gets a polynomial of the declared degree through
     ``degree + 1`` points, checked at two more; a mismatch (the effect is no
-    longer what :data:`STATIC_DEGREE` says) raises :class:`NotInvertible`.
+    longer what its :attr:`~identify.effects.Effect.static_degree` says) raises :class:`NotInvertible`.
     """
     if not effects:
         return None
     L = grid.levels
     breaks = set(float(i) for i in range(L + 1))
     for e in effects:
-        for knot in _breakpoints(e):
+        for knot in e.static_breakpoints_V():
             x = (knot - grid.v_min) / grid.step
             if 0.0 < x < L:
                 breaks.add(x)
     br = sorted(breaks)
-    degree = max(STATIC_DEGREE[e.name] for e in effects)
+    degree = max(e.static_degree for e in effects)
     nodes = np.linspace(0.0, 1.0, degree + 1)
     checks = np.array([0.3141592653589793, 0.7182818284590452])
     frac = np.concatenate([nodes, checks])
@@ -162,8 +158,6 @@ class LagState:
     """
 
     def __init__(self, effect: Effect) -> None:
-        from ..effects.thermal_lag import mode_drives
-
         p = effect.params
         self.taus = np.asarray(p["time_constants_s"], dtype=float)
         self.fractions = np.asarray(p["fractions"], dtype=float)
@@ -241,7 +235,8 @@ def _refuse(effect: Effect, why: str) -> NotInvertible:
 
 
 def plan_effects(effects: tuple[Effect, ...] | list[Effect], run_name: str) -> EffectPlan:
-    """Sort ``effects`` (fitted) by treatment; :class:`NotInvertible` for what cannot be inverted exactly.
+    """Sort ``effects`` (fitted) by treatment, as each says (:attr:`~identify.effects.Effect.inversion`);
+    :class:`NotInvertible` for what cannot be inverted exactly.
 
     ``run_name`` names the run being inverted: a per-run effect (a drift)
     fitted on a run of that name would be a drift of the future, which is
@@ -257,33 +252,23 @@ def plan_effects(effects: tuple[Effect, ...] | list[Effect], run_name: str) -> E
                 raise _refuse(e, f"it was fitted on a run named {run_name!r}, the run being inverted; a drift "
                                  "is known only after the run")
             plan.inert.append(e)
-        elif e.name in STATIC_DEGREE and e.stage == OUTPUT:
+            continue
+        why = e.inversion_refused()
+        if why is not None:
+            raise _refuse(e, why)
+        kind = e.inverted_as()
+        if kind == "static":
             plan.static.append(e)
-        elif e.name == "creep" and e.stage == OUTPUT:
-            if (e.params or {}).get("drive") in ("excursion", "phase_excursion"):
-                raise _refuse(e, "driven by the excursion since the last reversal, its value at a reversal point "
-                                 "depends on the set-point after it (which makes the point a reversal); an inversion "
-                                 "cannot know that in advance")
+        elif kind == "offset":
             plan.offsets.append(e)
-        elif e.name == "thermal_lag" and e.stage == INPUT:
+        elif kind == "lag":
             plan.lag = e
-        elif e.name == "interaction" and e.stage == INPUT:
-            p = e.params
-            if float(p.get("k", 0.0)) == 0.0:
-                plan.inert.append(e)
-                continue
-            if p.get("drive", "voltage") != "voltage" or p.get("source", "output") != "output":
-                raise _refuse(e, f"driven by {p.get('drive')} and felt through the {p.get('source')}, the hysterons' "
-                                 "input is not a polynomial of the set-point on a piece (only drive 'voltage' with "
-                                 "source 'output' is inverted exactly)")
+        elif kind == "feedback":
             plan.interaction = e
-        elif e.stage == SENSOR and e.name == "sensor_nonlinearity":
+        elif kind == "sensor":
             plan.sensor = e
-        elif e.name == "first_point":
-            raise _refuse(e, "its offset after a turn grows with the reversing step through a saturating "
-                             "exponential, which no polynomial piece holds")
-        else:
-            raise _refuse(e, "this inversion does not know how it acts")
+        else:  # "inert"
+            plan.inert.append(e)
     moved = plan.lag is not None or plan.interaction is not None
     if moved and (plan.static or plan.offsets):
         what = ", ".join(e.name for e in plan.static + plan.offsets)

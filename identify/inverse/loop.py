@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import IdentifyError
 from .effects import plan_effects
+from .inverter import Inverter
 
 #: Samples of the major loop per cell of the grid, each way.
 POINTS_PER_CELL = 16
@@ -37,8 +38,6 @@ def settled_model(model):
 def major_loop(model, domain: tuple[float, float] | None = None,
                points_per_cell: int = POINTS_PER_CELL) -> tuple[np.ndarray, np.ndarray]:
     """``(v, y)``: the set-points (V) of the sweep up and back down and the model's readings (um), ``(2n,)``."""
-    from .inverter import Inverter
-
     g = model.grid
     lo, hi = (g.v_min, g.v_max) if domain is None else domain
     n = max(2, int(points_per_cell * g.levels * (hi - lo) / (g.v_max - g.v_min)) + 1)

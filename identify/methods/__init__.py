@@ -19,30 +19,35 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import IdentifyError
+from ..registry import ByName
+from ..sampling import choose_rows
 from .base import Method
 from .compressive import CompressiveSensing, CompressiveSensingNoDCT, CompressiveSensingOrder
 from .forc_everett import EverettFORC
 from .least_squares import LeastSquares
 from .ordered_nn import CompressiveSensingOrderNonNegative
-from .problem import Problem, choose_rows
+from .problem import Problem
 from .smooth_nn import SmoothNonNegative
 
-METHODS: dict[str, type[Method]] = {
-    cls.name: cls
-    for cls in (
-        LeastSquares,
-        CompressiveSensing,
-        CompressiveSensingOrder,
-        CompressiveSensingOrderNonNegative,
-        CompressiveSensingNoDCT,
-        SmoothNonNegative,
-        EverettFORC,
-    )
-}
-
-
-#: The methods that apply to the damped oscillation (all but those that need curves).
-DAMPED_METHODS: tuple[str, ...] = tuple(name for name, cls in METHODS.items() if not cls.needs_curves)
+#: The methods, in the order the command line and the study list them: the registry (one line per method).
+#: Each class says what it needs (:attr:`Method.needs_square`, :attr:`Method.needs_order`,
+#: :attr:`Method.needs_curves`), what a fit costs (:meth:`Method.cost`), its name in the paper's figures
+#: and whether ``rig watch`` may refit with it.
+METHOD_CLASSES: tuple[type[Method], ...] = (
+    LeastSquares,
+    CompressiveSensing,
+    CompressiveSensingOrder,
+    CompressiveSensingOrderNonNegative,
+    CompressiveSensingNoDCT,
+    SmoothNonNegative,
+    EverettFORC,
+)
+#: The methods by name (:data:`METHOD_CLASSES`, read at each use).
+METHODS: ByName[type[Method]] = ByName(lambda: METHOD_CLASSES)
+#: The methods that apply to the damped oscillation (all but those that need curves), by name.
+DAMPED_METHODS: ByName[type[Method]] = ByName(lambda: tuple(c for c in METHOD_CLASSES if not c.needs_curves))
+#: The methods ``rig watch`` may refit with while a run goes on, by name.
+LIVE_METHODS: ByName[type[Method]] = ByName(lambda: tuple(c for c in METHOD_CLASSES if c.refits_live))
 
 
 def make_method(name: str, **settings: Any) -> Method:
@@ -56,4 +61,4 @@ def make_method(name: str, **settings: Any) -> Method:
     return cls(**settings)
 
 
-__all__ = ["DAMPED_METHODS", "METHODS", "Method", "Problem", "choose_rows", "make_method"]
+__all__ = ["DAMPED_METHODS", "LIVE_METHODS", "METHODS", "METHOD_CLASSES", "Method", "Problem", "choose_rows", "make_method"]

@@ -45,6 +45,22 @@ class Method(ABC):
     needs_order: ClassVar[bool] = False
     #: Needs inputs made of first-order reversal curves (``problem.curves``).
     needs_curves: ClassVar[bool] = False
+    #: Its name in the paper's figures (the study's legends); default: :attr:`name`.
+    label: ClassVar[str | None] = None
+    #: Fast enough to fit again while a run goes on (``rig watch``), on the points measured so far.
+    refits_live: ClassVar[bool] = False
+
+    @classmethod
+    def cost(cls, parameters: int, points: int, measured: int, square: bool) -> tuple[float, float]:
+        """A rough model of a fit's own time (s) and working memory (bytes) with ``parameters`` ``P``,
+        ``points`` applied ``n`` and ``measured`` rows ``M``, beyond the per-parameter and per-point arrays
+        every fit has; ``square``: the inputs are the square damped-oscillation design.
+
+        What ``rig identify`` checks against its limits before a fit starts (:mod:`rig.budget`): good to a
+        factor of ten in time and three in memory.  The constants of each method's model come from measured
+        fits (``benchmarks/identify_cost.py``).  Default: the size of ``A S``.
+        """
+        return 1e-6 * measured * parameters, 8.0 * measured * parameters
 
     def __init__(self, solver: str = "fast") -> None:
         if solver not in SOLVERS:

@@ -33,6 +33,13 @@ from .output_space import l1_outputs
 from .problem import Problem
 
 
+def square_design_cost(points: int, measured: int) -> tuple[float, float]:
+    """Time (s) and memory (bytes) of the square-design methods: the sparse ``S^-1`` and, for ``M <= 1000``,
+    basis pursuit's dense basis (measured at L = 30, 100, 200)."""
+    n, m = points, measured
+    return 2e-4 * n + 2e-9 * min(m, 1000) ** 3, 2e3 * n + 8.0 * min(m, 1000) ** 2
+
+
 class _Compressive(Method):
     """Shared settings: ``epsilon`` (um), the noise-aware bound, or None."""
 
@@ -41,6 +48,10 @@ class _Compressive(Method):
     def __init__(self, epsilon: float | None = None, solver: str = "fast") -> None:
         super().__init__(solver)
         self.epsilon = epsilon
+
+    @classmethod
+    def cost(cls, parameters: int, points: int, measured: int, square: bool) -> tuple[float, float]:
+        return square_design_cost(points, measured)
 
     def _recover_outputs(self, problem: Problem, positions: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, dict]:
         """``Psi^{-1} q*`` from the measurements ``y`` at ``positions`` of the transformed vector."""
@@ -59,6 +70,7 @@ class CompressiveSensing(_Compressive):
     """'CS': sparse DCT coefficients of the outputs ``S w`` in acquisition order."""
 
     name = "cs"
+    label = "CS"
 
     def _solve(self, problem: Problem):
         b_hat, info = self._recover_outputs(problem, problem.rows, problem.measured)
@@ -69,6 +81,7 @@ class CompressiveSensingOrder(_Compressive):
     """'CS Order': sparse DCT coefficients of the outputs sorted by value."""
 
     name = "cs_order"
+    label = "CS Order"
     needs_order = True
 
     def reconstruct_sorted(self, problem: Problem) -> tuple[np.ndarray, dict]:
@@ -91,11 +104,16 @@ class CompressiveSensingNoDCT(Method):
     """'CS Without DCT': l1 on the cell weights directly (not sparse; poor, as in the paper)."""
 
     name = "cs_nodct"
+    label = "CS Without DCT"
     needs_square = True
 
     def __init__(self, epsilon: float | None = None, solver: str = "fast") -> None:
         super().__init__(solver)
         self.epsilon = epsilon
+
+    @classmethod
+    def cost(cls, parameters: int, points: int, measured: int, square: bool) -> tuple[float, float]:
+        return square_design_cost(points, measured)
 
     def _solve(self, problem: Problem):
         if self.dense:

@@ -13,6 +13,7 @@ operator (:func:`.nnls.nnls_operator`), which never forms ``S``.
 
 from __future__ import annotations
 
+from . import nnls
 from .base import Method
 from .nnls import nnls_free, nnls_operator
 from .problem import Problem
@@ -20,6 +21,17 @@ from .problem import Problem
 
 class LeastSquares(Method):
     name = "ls"
+    label = "Least Squares"
+    refits_live = True
+
+    @classmethod
+    def cost(cls, parameters: int, points: int, measured: int, square: bool) -> tuple[float, float]:
+        """Measured at L = 60-1000 on 467 rows, L = 100/200 on the damped oscillation, L = 40 on the FORC file."""
+        p, m = parameters, measured
+        if min(m, p) * p <= nnls.DENSE_LH_ENTRIES:  # scipy's NNLS on dense rows
+            return 2e-9 * m * p * min(m, p), 24.0 * min(m, p) * p
+        # Lawson-Hanson on operator products: one product per step, a thin QR of the passive columns
+        return 1e-7 * m * p + 3e-10 * m * min(m, p) ** 2, 8.0 * (m * min(m, p, 2000) + 4 * p)
 
     def _solve(self, problem: Problem):
         problem.require_thermal_identifiable(self.name)

@@ -20,6 +20,7 @@ from .problem import Problem
 
 class CompressiveSensingOrderNonNegative(CompressiveSensingOrder):
     name = "cs_order_nn"
+    label = "CS Order Non-negative"
 
     def _solve(self, problem: Problem):
         b_hat, info_cs = self.reconstruct_sorted(problem)

@@ -35,18 +35,6 @@ from ..regressor import n_parameters, regressor_matrix
 from ..square import SquareSolver
 
 
-def choose_rows(n: int, m: int, seed: int | None, include: tuple[int, ...] = ()) -> np.ndarray:
-    """``m`` of the ``n`` row indices, sorted: ``include`` plus the rest uniformly at random."""
-    if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or not 1 <= m <= n:
-        raise IdentifyError(f"number of measurements M={m} must be between 1 and N={n}")
-    fixed = np.unique(np.asarray(include, dtype=np.int64))
-    if fixed.size > m:
-        raise IdentifyError(f"M={m} is fewer than the {fixed.size} rows that must be measured")
-    rng = np.random.default_rng(seed)
-    rest = np.setdiff1d(np.arange(n), fixed)
-    return np.sort(np.concatenate([fixed, rng.choice(rest, size=m - fixed.size, replace=False)]))
-
-
 def _of_design(name: str, doc: str) -> property:
     """A read-only attribute of the problem that is its design's ``name``."""
     return property(lambda self: getattr(self.design, name), doc=doc)

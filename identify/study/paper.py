@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..methods import METHODS
 from .summary import Difference, StudySummary, paired_difference
 from .trial import METRICS
 
@@ -39,15 +40,6 @@ PAPER: dict[str, dict] = {
     },
     #: Figure 5b: mean identification time (s), Matlab on an Intel i7-2600.
     "seconds": {"ls": 1.18, "cs": 0.28, "cs_order": 0.29, "cs_order_nn": 1.99},
-}
-
-LABELS = {
-    "ls": "Least Squares",
-    "cs": "CS",
-    "cs_order": "CS Order",
-    "cs_order_nn": "CS Order Non-negative",
-    "cs_nodct": "CS Without DCT",
-    "smooth_nn": "Smooth Non-negative (ours)",
 }
 
 #: Our method's targets (issue 3): ratio of its mean to cs_order_nn's at M = 300.
@@ -76,7 +68,9 @@ class Finding:
 
 
 def label(name: str) -> str:
-    return LABELS.get(name, name)
+    """A method's name in the paper's figures (its class's :attr:`~identify.methods.Method.label`), else ``name``."""
+    cls = METHODS.get(name)
+    return (cls.label if cls is not None else None) or name
 
 
 def _fmt(x: float) -> str:

@@ -53,7 +53,7 @@ class StudySetup:
     runs: int = 1000
     noise: float = 10.0
     seed: int = 0
-    methods: tuple[str, ...] = field(default_factory=lambda: DAMPED_METHODS)
+    methods: tuple[str, ...] = field(default_factory=lambda: tuple(DAMPED_METHODS))
     sweep_measurements: tuple[int, ...] = ()
     sweep_noise: tuple[float, ...] = ()
     validation_points: int = 500

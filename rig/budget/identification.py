@@ -2,10 +2,11 @@
 
 A fit's time and memory grow with the grid's parameters ``P = L(L+1)/2 + 2``,
 the applied points ``n`` and the measured rows ``M``, in a way that depends
-on the method and its path (docs/explanation/methods.md).  :func:`estimate_fit`
-is a rough model of each path, with constants set from measurements on the
-2-core development machine (``benchmarks/identify_cost.py`` prints the
-measured figures beside the estimates).  The time of an active-set or
+on the method and its path (docs/explanation/methods.md).  Each method
+states its own rough model (:meth:`identify.methods.Method.cost`), with
+constants set from measurements on the 2-core development machine
+(``benchmarks/identify_cost.py`` prints the measured figures beside the
+estimates); :func:`estimate_fit` adds what every fit has.  The time of an active-set or
 iterative solver depends on the data (how many cells the fit leaves free),
 not only on the sizes: trust the time to within a factor of ten either way
 and the memory to within a factor of three, which is what it is for --
@@ -23,6 +24,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from identify.methods import METHODS
+
 from .limits import Exceeded, format_bytes, format_duration
 
 #: Longest estimated fit, per file, without --yes (s).
@@ -38,12 +41,6 @@ BASE_BYTES = 90e6
 BYTES_PER_PARAMETER = 80
 #: Per applied point: inputs, outputs, the memory replay's Everett terms (bytes).
 BYTES_PER_POINT = 200
-#: ``smooth_nn``'s paths (identify.methods.smooth_nn): the dense normal equations up to this many cells.
-SMOOTH_NORMAL_CELLS = 2016
-#: ``ls`` builds dense rows of ``S`` up to this many entries (identify.methods.nnls.DENSE_LH_ENTRIES).
-LS_DENSE_ENTRIES = 500_000
-#: Methods that need the square damped-oscillation design.
-SQUARE_METHODS = ("cs", "cs_order", "cs_order_nn", "cs_nodct")
 
 
 def n_parameters(levels: int, thermal_term: bool = True) -> int:
@@ -83,34 +80,6 @@ class FitCost:
         return out
 
 
-def _seconds_and_bytes(method: str, p: int, n: int, m: int, square: bool) -> tuple[float, float]:
-    """The method's own time (s) and working memory (bytes) beyond the per-parameter and per-point arrays.
-
-    Constants from measured fits (docs/results: speed and scale, the FORC file, and
-    ``benchmarks/identify_cost.py``): ``ls`` at L = 60-1000 on 467 rows, L = 100/200 on the damped
-    oscillation, L = 40 on the FORC file; ``smooth_nn`` at L = 30/60 (normal equations), 100 (iterative),
-    100/200 (output space); the square-design methods at L = 30, 100, 200.
-    """
-    cells = p - 2
-    if method == "ls":
-        if min(m, p) * p <= LS_DENSE_ENTRIES:  # scipy's NNLS on dense rows
-            return 2e-9 * m * p * min(m, p), 24.0 * min(m, p) * p
-        # Lawson-Hanson on operator products: one product per step, a thin QR of the passive columns
-        return 1e-7 * m * p + 3e-10 * m * min(m, p) ** 2, 8.0 * (m * min(m, p, 2000) + 4 * p)
-    if method == "smooth_nn":
-        if cells <= SMOOTH_NORMAL_CELLS:  # dense normal equations, GCV's eigendecomposition, the QP
-            return 2e-9 * p ** 3 + 3e-7 * m * p + 0.3, 64.0 * p * p + 8.0 * min(m * p, 4e6)
-        if square:  # output space: sparse factorisations along the weight path, then Clarabel
-            return 5e-6 * n ** 1.5, 2e3 * n
-        # L-BFGS-B on operator products along a hold-out path of weights
-        return 1e-4 * (n + p) ** 1.5, 200.0 * p
-    if method in SQUARE_METHODS:  # sparse S^-1; basis pursuit's dense basis for M <= 1000
-        return 2e-4 * n + 2e-9 * min(m, 1000) ** 3, 2e3 * n + 8.0 * min(m, 1000) ** 2
-    if method == "everett":  # second differences of the interpolated FORC surface
-        return 1e-6 * n + 1e-5 * p, 8.0 * n
-    return 1e-6 * m * p, 8.0 * m * p  # a method added later: the size of A S
-
-
 def estimate_fit(method: str, levels: int, points: int, measured: int, *, square: bool = False,
                  thermal_term: bool = True) -> FitCost:
     """The estimated cost of fitting ``method`` on L = ``levels`` to ``measured`` of ``points`` applied points.
@@ -119,7 +88,7 @@ def estimate_fit(method: str, levels: int, points: int, measured: int, *, square
     many points as parameters), which the output-space paths use.
     """
     p = n_parameters(levels, thermal_term)
-    seconds, working = _seconds_and_bytes(method, p, points, measured, square)
+    seconds, working = METHODS[method].cost(p, points, measured, square)
     build = 3e-6 * points + 2e-7 * p  # the memory replay and the prefix tables
     memory = BASE_BYTES + BYTES_PER_PARAMETER * p + BYTES_PER_POINT * points + working
     return FitCost(method, levels, p, points, measured, seconds + build, memory)

@@ -68,7 +68,7 @@ def study(profile, runs, measurements, levels, noise, seed, methods, sweep, swee
     m_sweep = _number_list(sweep_measurements, int, "--sweep-measurements")
     d_sweep = _number_list(sweep_noise, float, "--sweep-noise")
     setup = StudySetup(profile=profile, levels=levels, measurements=measurements, runs=runs, noise=noise,
-                       seed=seed, methods=tuple(methods) or DAMPED_METHODS,
+                       seed=seed, methods=tuple(methods) or tuple(DAMPED_METHODS),
                        validation_points=validation_points)
     if sweep or m_sweep:
         m_sweep = m_sweep or default_measurement_sweep(setup.n_points)

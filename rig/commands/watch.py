@@ -10,6 +10,8 @@ from pathlib import Path
 
 import click
 
+from identify.methods import LIVE_METHODS
+
 from ..errors import UserError
 from ..output import print_json
 
@@ -38,7 +40,7 @@ def nothing_yet(target: Path) -> str:
 @click.option("--allow-remote", is_flag=True,
               help="Allow listening beyond loopback (e.g. --host 0.0.0.0); prints an access token the page requires.")
 @click.option("--open", "open_browser", is_flag=True, help="Open the page in this machine's web browser.")
-@click.option("--method", type=click.Choice(["smooth_nn", "ls"]), default="smooth_nn", show_default=True,
+@click.option("--method", type=click.Choice(list(LIVE_METHODS)), default="smooth_nn", show_default=True,
               help="Method of the model so far.")
 @click.option("--levels", "-L", type=int,
               help="Levels of the model's grid [the session's; 30 when it records none, over the measured inputs].")

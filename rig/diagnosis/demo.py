@@ -13,23 +13,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from drivers.sim import EFFECTS
 from identify.diagnosis import Diagnosis, DiagnosisSettings, diagnose
 
 from .loading import load_runs
 from .report import to_json, to_text
 from .simulate import SimulatedBench, simulate
 
-#: Strengths that open a gap of about ten times the noise level on the default bench
-#: (``benchmarks/diagnose_bench.py`` calibrates them; rounded).
-DEMO_STRENGTHS = {
-    "thermal_lag": 0.035,
-    "baseline_drift": 0.009,
-    "ambient_drift": 0.046,
-    "joule_power": 0.093,
-    "creep": 0.06,
-    "sensor_nonlinearity": 0.24,
-    "gain_drift": 0.004,
-}
+def demo_strength(effect: str | None) -> float:
+    """The strength the demo switches ``effect`` on with (0 for none): the simulated effect's own
+    (:attr:`drivers.sim.Effect.demo_strength`), a gap about ten times the noise on the default bench."""
+    return EFFECTS[effect].demo_strength if effect in EFFECTS else 0.0
+
+
 #: The effect the demo switches on unless told otherwise.
 DEMO_EFFECT = "creep"
 
@@ -58,13 +54,13 @@ def diagnose_simulated(
 ) -> SimulatedDiagnosis:
     """Simulate both runs with ``effect`` on (None: no effect) and diagnose them blind.
 
-    ``strength`` defaults to :data:`DEMO_STRENGTHS`; the sessions are
+    ``strength`` defaults to :func:`demo_strength`; the sessions are
     written to ``directory`` (default: a temporary directory, removed
     afterwards -- the returned paths then no longer exist).  A few seconds
     on the virtual clock.
     """
     if strength is None:
-        strength = DEMO_STRENGTHS.get(effect, 0.0) if effect else 0.0
+        strength = demo_strength(effect)
     bench = SimulatedBench(effect, strength, levels=levels, check_points=check_points, seed=seed)
     with tempfile.TemporaryDirectory() as tmp:
         where = Path(directory) if directory is not None else Path(tmp)

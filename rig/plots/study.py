@@ -20,6 +20,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from identify.methods import METHODS
 from identify.study import PAPER, PointSummary, StudySummary, dct_example
 from identify.study.sparsity import THRESHOLD
 
@@ -29,8 +30,15 @@ from .style import COLOURS, LEGEND_SIZE, display_unit, label_axes, legend, new_f
 UM = display_unit("um")
 #: Axis label of the errors normalised by the true output's range.
 NORMALISED = "fraction of the output range"
-#: A marker per method, so the sweeps read in grey too.
-MARKERS = {"ls": "o", "cs": "s", "cs_order": "^", "cs_order_nn": "v", "cs_nodct": "x", "smooth_nn": "*"}
+#: Markers, given to the methods in their registry's order (ls o, cs s, cs_order ^, cs_order_nn v, cs_nodct x,
+#: smooth_nn *, ...), so the sweeps read in grey too.
+MARKER_CYCLE = "os^vx*DP<>ph"
+
+
+def marker(method: str) -> str:
+    """The method's marker: by its place in :data:`identify.methods.METHODS` (``.`` for one it does not know)."""
+    names = list(METHODS)
+    return MARKER_CYCLE[names.index(method) % len(MARKER_CYCLE)] if method in names else "."
 
 #: The metrics plotted: (key in the summary, axis label).
 MODEL_RMSE = ("model_rmse", f"modelling RMSE\n({NORMALISED})")
@@ -80,7 +88,7 @@ def _sweep(ax: Axes, points: list[PointSummary], key: str, metric: tuple[str, st
     name, ylabel = metric
     xs = [getattr(q, key) for q in points]
     for method in points[0].per_run:
-        ax.plot(xs, [q.mean(method, name) for q in points], marker=MARKERS.get(method, "."), label=method)
+        ax.plot(xs, [q.mean(method, name) for q in points], marker=marker(method), label=method)
     ax.set_yscale("log")
     xlabel = "M (measurements)" if key == "measurements" else f"D (noise amplitude, {UM})"
     label_axes(ax, xlabel, ylabel, title)

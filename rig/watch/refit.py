@@ -28,8 +28,6 @@ from typing import Any
 
 import numpy as np
 
-#: Methods fast enough to refit while the run goes on, and that take any input history.
-FAST_METHODS = ("smooth_nn", "ls")
 #: Fewest measured points before a model is fitted.
 MIN_POINTS = 3
 #: At most this many points on the model's path through the loop (as ``rig report``).

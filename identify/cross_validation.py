@@ -1,5 +1,9 @@
 """Held-out scores: blocked cross-validation over the check data, and the block bootstrap.
 
+The gap diagnosis (:mod:`identify.diagnosis`) scores its candidates with it, and a stored model's per-run
+effects are re-estimated held out with it on a run they do not know (:mod:`identify.effects.nuisance`):
+it stands below both.
+
 **Why cross-validation.**  A candidate's coefficients (and its nonlinear
 setting) must be estimated somewhere.  The identification runs often
 cannot tell them apart from the density -- the damped-oscillation design
@@ -35,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..methods.nnls import nnls_free
+from .methods.nnls import nnls_free
 
 #: Aim for this many blocks per check run.
 TARGET_BLOCKS = 40
