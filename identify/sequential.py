@@ -36,6 +36,15 @@ factor at that confidence, had the model been calibrated.  A prior that was
 too confident, or too cautious, is corrected by what the run showed, and
 the run stops on a bound, not on a guess.
 
+**The prediction the run stops on** is not the posterior's: the model a
+user gets is :data:`HELD_OUT_METHOD`'s (smooth, non-negative), usually
+better than the Gaussian posterior mean.  Every :data:`REFIT_EVERY` points,
+once :data:`MIN_CHECKS` check points exist, that method is fitted on every
+point but the check points (they still set the memory state), and its RMS
+error on the check points over the span of the outputs is the predicted
+check nRMSE: a held-out estimate by the method itself, on random levels as
+a check run draws them.  Before that, the calibrated posterior's.
+
 **The next point** (I-optimal): among the grid's walls and the midpoints
 between them (off-wall points identify the thermal term) inside the window,
 the one whose row ``s`` most reduces the mean predicted variance of the
@@ -53,6 +62,7 @@ from scipy.stats import chi2
 
 from .errors import IdentifyError
 from .excitation import Excitation
+from .fit import fit_sequence
 from .grid import Grid
 from .memory import CellStates, MemoryCurve
 from .methods.triangle_penalty import dense_roughness_matrix
@@ -71,6 +81,11 @@ MIN_CHECKS, RECENT_CHECKS = 5, 24
 RATIO_CAP = 10.0
 #: The calibration is the upper bound of this one-sided confidence (the run stops on a bound, not a guess).
 CONFIDENCE = 0.8
+#: Every this many points the method the run's recipe names is refitted without the check points, and its
+#: error on them becomes the prediction.
+REFIT_EVERY = 20
+#: The method the prediction is about (the recipe ``rig acquire --target-nrmse`` records).
+HELD_OUT_METHOD = "smooth_nn"
 #: Prior standard deviation of the bias (um) and of the thermal term (um/V): nearly free.
 FREE_SD = 1e3
 #: Points of each random check run the predicted error is taken over, and how many runs.
@@ -116,6 +131,8 @@ class SequentialDesign:
         self.errors: list[tuple[float, float]] = []  # check points: (squared error, predicted variance)
         self._rng = np.random.default_rng(seed)
         self._kinds: list[str] = []
+        #: The latest held-out estimate (check nRMSE of :data:`HELD_OUT_METHOD` on the check points), or None.
+        self.held_out: float | None = None
 
     # ------------------------------------------------------------ rows
     def _rows(self, v: np.ndarray) -> np.ndarray:
@@ -182,12 +199,29 @@ class SequentialDesign:
         denom = s2 + float(r @ pr)
         if kind == "check":
             self.errors.append(((y - float(r @ self.mean)) ** 2, denom))
+        if len(self.inputs) % REFIT_EVERY == 0 and len(self.errors) >= MIN_CHECKS:
+            self.held_out = self._held_out()
         self.mean = self.mean + pr * (y - float(r @ self.mean)) / denom
         self.cov = self.cov - np.outer(pr, pr) / denom
         self.check_var = self.check_var - (self.check @ pr) ** 2 / denom
 
+    def _held_out(self) -> float | None:
+        """:data:`HELD_OUT_METHOD` fitted without the check points, its nRMSE on them; None if it cannot fit."""
+        v, y = np.asarray(self.inputs), np.asarray(self.outputs)
+        checks = (np.asarray(self._kinds) == "check") & np.isfinite(y)
+        train = np.where(checks, np.nan, y)
+        try:
+            model = fit_sequence(self.grid, v, train, HELD_OUT_METHOD, thermal_term=self.thermal_term).model
+        except IdentifyError:
+            return None
+        err = model.predict(v)[checks] - y[checks]
+        span = float(np.ptp(y[np.isfinite(y)]))
+        return float(np.sqrt(np.mean(err * err))) / span if span > 0 else None
+
     def predicted_nrmse(self) -> float:
         """The check nRMSE expected of the model now (see the module docstring); inf before two points."""
+        if self.held_out is not None:
+            return self.held_out
         y = np.asarray([o for o in self.outputs if math.isfinite(o)])
         if y.size < 2 or np.ptp(y) <= 0:
             return math.inf
