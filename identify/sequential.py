@@ -58,7 +58,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import chi2
 
 from .errors import IdentifyError
 from .excitation import Excitation
@@ -233,6 +232,8 @@ class SequentialDesign:
         """The factor the check points put on the predicted variance (1 until :data:`MIN_CHECKS`)."""
         if len(self.errors) < MIN_CHECKS:
             return 1.0
+        from scipy.stats import chi2  # here: importing identify does not pay for scipy.stats
+
         e = np.asarray(self.errors[-RECENT_CHECKS:])
         ratios = np.minimum(e[:, 0] / e[:, 1], RATIO_CAP)
         m = ratios.size

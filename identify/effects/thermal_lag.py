@@ -44,7 +44,6 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ..errors import IdentifyError
 from ..grid import Grid
@@ -137,6 +136,7 @@ class ThermalLag(Effect):
         """(``dominant``) The start of the fit: see the module docstring; None without the option."""
         if not self.dominant or self.fitted:
             return None
+        from scipy.optimize import minimize_scalar  # here: rig identify's start-up does not pay for scipy.optimize
         best: tuple[float, str, float] | None = None
         for drive in ("power", "voltage"):
             cache: dict[float, float] = {}
