@@ -23,7 +23,7 @@ import numpy as np
 from drivers.sim.transition import transition_density
 from identify import Grid, PreisachModel
 from identify.errors import IdentifyError
-from identify.rig_time import TimedPlan, plan_within
+from identify.rig_time import DWELL_SPREAD, TimedPlan, plan_within
 
 from .errors import AcquisitionError
 
@@ -75,11 +75,13 @@ def describe(plan: TimedPlan) -> str:
     c = plan.chosen
     if c.kind == "model":
         how = (f"thermal lag modelled (rig identify --with {','.join(plan.effects)}): reversal points "
-               f"{c.reversal_dwell_s:.3g} s, the others {c.scale_s * 0.2:.3g}-{c.scale_s:.3g} s")
+               f"{c.reversal_dwell_s:.3g} s, the others {c.scale_s * min(DWELL_SPREAD):.3g}-"
+               f"{c.scale_s * max(DWELL_SPREAD):.3g} s")
     else:
         how = f"transient waited out: {c.scale_s:.3g} s at every point, no lag in the model"
     worst = max(c.expected_nrmse.values())
-    return (f"rig-time plan: {plan.n_points} points, {plan.readings} readings each, {how}; "
+    each = f"{plan.readings} reading{'s' if plan.readings != 1 else ''} each"
+    return (f"rig-time plan: {plan.n_points} points, {each}, {how}; "
             f"{plan.rig_time_s:.0f} s of {plan.budget_s:.0f} s; expected check nRMSE "
             f"{min(c.expected_nrmse.values()):.2g}-{worst:.2g} over time constants "
             f"{', '.join(f'{t:g}' for t in c.expected_nrmse)} s")
