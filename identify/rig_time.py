@@ -205,7 +205,7 @@ def plan_within(grid: Grid, budget_s: float, reference: PreisachModel, *, therma
     rev = reversal_points(inputs)
     draw = np.random.default_rng(seed).choice(len(DWELL_SPREAD), size=n)
     spread = np.asarray(DWELL_SPREAD)[draw]
-    ref = np.concatenate([reference.density, [reference.mu0], [reference.c_d] if thermal_term else []])
+    ref = reference.parameters(thermal_term)
     check = np.vstack([regressor_matrix(grid, Excitation.random(grid, CHECK_POINTS, seed + j).inputs, thermal_term)
                        for j in range(CHECK_RUNS)])
     span = max(float(np.ptp(check @ ref)), 1e-300)

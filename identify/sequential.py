@@ -136,6 +136,8 @@ class SequentialDesign:
         self.errors: list[tuple[float, float]] = []  # check points: (squared error, predicted variance)
         self._rng = np.random.default_rng(seed)
         self._kinds: list[str] = []
+        #: What :meth:`next_input` last proposed: "design", "check" or "replicate".
+        self.proposed = "design"
         #: The latest held-out estimate (check nRMSE of :data:`HELD_OUT_METHOD` on the check points), or None.
         self.held_out: float | None = None
 
@@ -188,7 +190,7 @@ class SequentialDesign:
     def add(self, v: float, y: float, kind: str | None = None) -> None:
         """Point ``v`` (V) was applied and read ``y`` (um): move the memory, update the posterior.  ``kind``:
         what :meth:`next_input` proposed it as (default: its last proposal when ``v`` is that proposal)."""
-        kind = kind or getattr(self, "proposed", "design")
+        kind = kind or self.proposed
         self.proposed = "design"
         if kind == "replicate" and self.inputs and v == self.inputs[-1] and math.isfinite(y):
             self.pairs.append(y - self.outputs[-1])

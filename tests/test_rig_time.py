@@ -109,6 +109,9 @@ def test_rig_acquire_rig_time_plans_runs_and_records_the_recipe(tmp_path):
     summary = r.json()
     assert summary["status"] == "complete" and summary["rig_time_s"] <= 150.0 + 1e-6
     assert "rig-time plan:" in r.err and "of 150 s" in r.err
+    plan = summary["rig_time_plan"]
+    assert plan["budget_s"] == 150 and plan["rig_time_s"] <= 150 + 1e-6 and len(plan["candidates"]) >= 1
+    assert plan["kind"] in ("model", "wait") and plan["readings"] >= 1
     recipe = summary["identify_recipe"]
     assert recipe["method"] == "ls" and "--rig-time 150" in recipe["reason"]
     ident = rig_here("identify", out, "--json")

@@ -27,7 +27,7 @@ import numpy as np
 
 from identify import Grid
 from identify.sequential import MIN_CHECKS, SequentialDesign
-from sessions import ADAPTIVE_COLUMNS, ADAPTIVE_KIND, ExcitationRecord
+from sessions import ADAPTIVE_KIND, ExcitationRecord
 
 from .errors import AcquisitionError
 from .timed import reading_costs, reference_device
@@ -109,7 +109,3 @@ class AdaptiveSetpoints:
             self.report(k + 1, self.predicted, t_s)
         return {"predicted_nrmse": self.predicted, "point_kind": KIND_CODES[kind]}
 
-
-def sample_columns():
-    """The extra sample columns a run to a target records."""
-    return ADAPTIVE_COLUMNS

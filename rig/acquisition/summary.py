@@ -79,6 +79,8 @@ def summarise(session: Session, outcome: RunOutcome) -> dict[str, Any]:
         "message": outcome.message,
         "identify_recipe": None if session.recipe is None else session.recipe.to_dict(),
         **_adaptive(session),
+        **({"rig_time_plan": session.excitation.extra["rig_time_plan"]}
+           if "rig_time_plan" in session.excitation.extra else {}),
     }
 
 

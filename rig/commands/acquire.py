@@ -209,8 +209,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         if sequence != "damped" or given:
             raise AcquisitionError("--target-nrmse chooses the set-points and the recipe itself; "
                                    f"{', '.join(given) or '--sequence ' + sequence} contradicts it")
-        timed = TimedRequest(rig_time, None, target_nrmse) if rig_time is not None else TimedRequest(
-            None, None, target_nrmse)
+        timed = TimedRequest(rig_time, None, target_nrmse)
     elif rig_time is not None:
         check_options(sequence, [f"--{n.replace('_', '-')}" for n in CONTRADICTING
                                  if ctx.get_parameter_source(n) is not ParameterSource.DEFAULT])
@@ -265,6 +264,8 @@ def new_session(config_path: Path | None, out: Path, *, sequence: str = "damped"
                         seed=seed, thermal_term=thermal_term),
         settings, measure, seed,
     )
+    if timed is not None:  # the plan is kept with the session: what was chosen, and from what
+        record = dataclasses.replace(record, extra={**record.extra, "rig_time_plan": plan.as_dict()})
     recipe = default_recipe(record) if identify_with is None else given_recipe(identify_with, record)
     if timed is not None:
         recipe = dataclasses.replace(recipe, reason=f"rig acquire --rig-time {timed.budget_s:g}: "
@@ -293,7 +294,7 @@ def _to_target(cfg, out: Path, timed: TimedRequest, *, window, rules, levels, v_
     design = design_for(cfg, grid, (max(window.min_V, grid.v_min), min(window.max_V, grid.v_max)), readings, seed,
                         thermal_term)
     ref = reference_device(cfg, grid)
-    span = float(np.ptp(design.check @ np.concatenate([ref.density, [ref.mu0], [ref.c_d] if thermal_term else []])))
+    span = float(np.ptp(design.check @ ref.parameters(thermal_term)))
     check_target(timed.target_nrmse, design, span)
     if timed.budget_s is not None and not (timed.budget_s > 0 and np.isfinite(timed.budget_s)):
         raise AcquisitionError(f"--rig-time must be a positive number of seconds, got {timed.budget_s:g}")
