@@ -70,12 +70,6 @@ SCALES_S = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 #: How many of them it tries: the largest the budget allows (shorter ones starve nothing but the lag's
 #: identification; this keeps planning within its 2 s).
 SCALES_TRIED = 3
-#: The first point -- the top of the damped oscillation, where every hysteron up to the highest wall
-#: switches -- is held this many times the slowest prior time constant (at most a quarter of the dwells'
-#: budget): a top reached short of saturation leaves the highest cells never switched, indistinguishable
-#: from the bias, and the model predicts nothing above what the run reached (one blind device, tau 8.4 s,
-#: a tenth of the paper's rig time: check nRMSE 0.96 with a 14.5 s first dwell, 0.008 with 75 s).
-FIRST_HOLD_TAUS = 5.0
 #: Shortest dwell the rig can hold (s): the heater's electrical response plus a set-point write.
 MIN_DWELL_S = 0.1
 #: Readings per point the planner may choose (without ``readings``).
@@ -221,18 +215,11 @@ def plan_within(grid: Grid, budget_s: float, reference: PreisachModel, *, therma
     for scale in SCALES_S:
         dw = np.maximum(scale * spread, MIN_DWELL_S)
         rest = dwell_budget - float(dw[~rev].sum())
-        first = min(FIRST_HOLD_TAUS * max(taus_s), 0.25 * dwell_budget)
-        n_rev = int(rev.sum())
-        d_rev = rest / max(n_rev, 1)
-        if d_rev < first:  # the first point (the oscillation's top reversal) longer, the others share the rest
-            d_rev = (rest - first) / max(n_rev - 1, 1)
-        else:
-            first = d_rev
+        d_rev = rest / max(int(rev.sum()), 1)
         if d_rev < scale * max(DWELL_SPREAD):
             continue  # reversals at least as long as any other point
         dw = dw.copy()
         dw[rev] = d_rev
-        dw[0] = first
         schedules.append(("model", scale, d_rev, dw, k_model))
     schedules = schedules[-SCALES_TRIED:]
     one = (budget_s - n * k_wait * reading_s) / n
