@@ -21,6 +21,32 @@ from .benchsim import modbus_toml
 FAST_DEVICE = dict(time_constant_s=0.002, psd_noise_V=0.0)
 
 
+def virtual_sim_config(tmp_path: Path, levels: int, time_constant_s: float, name: str = "rig.toml") -> Path:
+    """A ``rig.toml`` of the in-process simulated device on the virtual clock: L = ``levels`` on 0-6 V,
+    first-order lag ``time_constant_s`` (s)."""
+    path = tmp_path / name
+    path.write_text(f"""driver = "sim"
+clock = "virtual"
+[heater]
+max_V = 6.0
+[sensor]
+um_per_V = 5.0
+[sim]
+levels = {levels}
+time_constant_s = {time_constant_s}
+""")
+    return path
+
+
+def refused_before_writing(config: Path, tmp_path: Path, args: list[str], message: str) -> None:
+    """``rig acquire --config CONFIG --out NEW ARGS`` is one line naming ``message``, exit 2, and no file."""
+    from .cli import assert_one_line_error, rig_here
+
+    out = tmp_path / "refused.h5"
+    assert_one_line_error(rig_here("acquire", "--config", config, "--out", out, *args), message)
+    assert not out.exists()
+
+
 def bench_config(bench, tmp_path: Path, name: str = "rig.toml") -> Path:
     path = tmp_path / name
     path.write_text(modbus_toml(bench))

@@ -23,19 +23,10 @@ from identify.fit import fit_run
 from identify.rig_time import MIN_DWELL_S, least_budget_s, plan_within
 from identify.runs import Run
 
-from .cli import assert_one_line_error, rig_here
+from .acquirekit import refused_before_writing, virtual_sim_config
+from .cli import rig_here
 
 GRID = Grid(8, 0.0, 6.0)
-CONFIG = """driver = "sim"
-clock = "virtual"
-[heater]
-max_V = 6.0
-[sensor]
-um_per_V = 5.0
-[sim]
-levels = 8
-time_constant_s = 2.0
-"""
 
 
 def _reference() -> "object":
@@ -96,14 +87,8 @@ def test_dominant_lag_is_recovered_where_steps_from_zero_are_not():
     assert plain.rmse > 10 * rep.rmse  # the reason for the option
 
 
-def _config(tmp_path):
-    path = tmp_path / "rig.toml"
-    path.write_text(CONFIG)
-    return path
-
-
 def test_rig_acquire_rig_time_plans_runs_and_records_the_recipe(tmp_path):
-    cfg, out = _config(tmp_path), tmp_path / "fast.h5"
+    cfg, out = virtual_sim_config(tmp_path, 8, 2.0), tmp_path / "fast.h5"
     r = rig_here("acquire", "--config", cfg, "--rig-time", 150, "--out", out, "--json")
     assert r.code == 0, r.err
     summary = r.json()
@@ -129,6 +114,4 @@ def test_rig_acquire_rig_time_plans_runs_and_records_the_recipe(tmp_path):
     (["--rig-time", "150", "--sequence", "random"], "not --sequence random"),
 ])
 def test_rig_time_bad_input_exits_2_and_writes_nothing(tmp_path, args, message):
-    cfg, out = _config(tmp_path), tmp_path / "no.h5"
-    assert_one_line_error(rig_here("acquire", "--config", cfg, "--out", out, *args), message)
-    assert not out.exists()
+    refused_before_writing(virtual_sim_config(tmp_path, 8, 2.0), tmp_path, args, message)

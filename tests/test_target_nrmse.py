@@ -20,19 +20,10 @@ from identify.regressor import regressor_matrix
 from identify.sequential import CHECK_EVERY, MIN_CHECKS, REPLICATE_EVERY, SequentialDesign
 from sessions import ADAPTIVE_KIND, read_session
 
+from .acquirekit import refused_before_writing, virtual_sim_config
 from .cli import assert_one_line_error, rig_here
 
 GRID = Grid(5, 0.0, 6.0)
-CONFIG = """driver = "sim"
-clock = "virtual"
-[heater]
-max_V = 6.0
-[sensor]
-um_per_V = 5.0
-[sim]
-levels = 5
-time_constant_s = 0.5
-"""
 
 
 def _design(**kw) -> SequentialDesign:
@@ -87,14 +78,8 @@ def test_noise_shown_by_replicates_replaces_a_smaller_assumed_one():
     assert d.sigma > 1e-3
 
 
-def _config(tmp_path):
-    path = tmp_path / "rig.toml"
-    path.write_text(CONFIG)
-    return path
-
-
 def test_a_run_to_a_target_stops_complete_and_is_identified(tmp_path):
-    cfg, out = _config(tmp_path), tmp_path / "to.h5"
+    cfg, out = virtual_sim_config(tmp_path, 5, 0.5), tmp_path / "to.h5"
     r = rig_here("acquire", "--config", cfg, "--target-nrmse", 0.02, "--dwell", 5, "--readings", 1,
                  "--out", out, "--json")
     assert r.code == 0, r.err
@@ -115,7 +100,7 @@ def test_a_run_to_a_target_stops_complete_and_is_identified(tmp_path):
 
 
 def test_a_rig_time_cap_ends_the_run_before_the_target(tmp_path):
-    cfg, out = _config(tmp_path), tmp_path / "cap.h5"
+    cfg, out = virtual_sim_config(tmp_path, 5, 0.5), tmp_path / "cap.h5"
     r = rig_here("acquire", "--config", cfg, "--target-nrmse", 0.0005, "--rig-time", 200, "--dwell", 5,
                  "--out", out, "--json")
     assert r.code == 0, r.err
@@ -132,6 +117,4 @@ def test_a_rig_time_cap_ends_the_run_before_the_target(tmp_path):
     (["--target-nrmse", "0.01", "--rig-time", "-5"], "--rig-time must be a positive"),
 ])
 def test_target_bad_input_exits_2_and_writes_nothing(tmp_path, args, message):
-    cfg, out = _config(tmp_path), tmp_path / "no.h5"
-    assert_one_line_error(rig_here("acquire", "--config", cfg, "--out", out, *args), message)
-    assert not out.exists()
+    refused_before_writing(virtual_sim_config(tmp_path, 5, 0.5), tmp_path, args, message)
