@@ -115,3 +115,13 @@ def test_rig_acquire_rig_time_plans_runs_and_records_the_recipe(tmp_path):
 ])
 def test_rig_time_bad_input_exits_2_and_writes_nothing(tmp_path, args, message):
     refused_before_writing(virtual_sim_config(tmp_path, 8, 2.0), tmp_path, args, message)
+
+
+def test_a_set_point_of_zero_volts_after_heating_is_still_warm():
+    """The lag of a beam heated to 6 V and set to 0 V for less than its time constant: the hysterons feel the
+    warm beam (hand-computed: p = 36 exp(-1 / 2) V^2, x = 6 exp(-1 / 4) V), not negative saturation."""
+    from identify.effects.thermal_lag import lagged
+
+    run = Run("r", np.array([6.0, 0.0]), np.zeros(2), np.array([100.0, 101.0]), np.array([100.0, 1.0]))
+    x = lagged(run, 2.0, 1.0, drive="power")
+    assert x[1] == pytest.approx(6.0 * np.exp(-0.25), rel=1e-9)

@@ -105,7 +105,8 @@ def lagged(run: Run, tau: float | np.ndarray, fraction: float | np.ndarray, v: n
         for t, f in mine:
             lag += f * (slow_mode(run, float(t), v, which) - target)
         if which == "power":
-            out = np.sign(v) * np.sqrt(np.maximum(target + lag, 0.0))
+            # signed as v, a set-point of 0 V as a positive one: the beam heated before it is still warm
+            out = np.where(v < 0, -1.0, 1.0) * np.sqrt(np.maximum(target + lag, 0.0))
         else:
             out = out + lag
     return out

@@ -192,7 +192,7 @@ class LagState:
         """The hysterons' input (V) for the set-point ``v`` (V) with coefficients ``c``."""
         ap, bp, av, bv = c
         root = math.sqrt(max(ap + bp * v * v, 0.0))
-        return (root if v > 0 else -root if v < 0 else 0.0) + av - (1.0 - bv) * v  # as np.sign(v) * sqrt
+        return (-root if v < 0 else root) + av - (1.0 - bv) * v  # signed as v, 0 V as positive (as lagged)
 
     @staticmethod
     def backward(c: tuple[float, float, float, float], x: float) -> float:
