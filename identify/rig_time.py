@@ -56,10 +56,12 @@ import numpy as np
 from .acquisition_plan import reversal_points
 from .errors import IdentifyError
 from .excitation import Excitation
+from .effects.thermal_lag import lagged
 from .grid import Grid
 from .methods.nnls import nnls_free
 from .model import PreisachModel
 from .regressor import regressor_matrix
+from .runs import Run
 
 #: Thermal time constants (s) the plan must work for, log-spaced over what VO2 beams show.
 PRIOR_TIME_CONSTANTS_S = (0.5, 1.5, 5.0, 15.0)
@@ -141,33 +143,16 @@ def least_budget_s(grid: Grid, thermal_term: bool = True, reading_s: float = 0.0
     return n * (MIN_DWELL_S + reading_s)
 
 
-def _lagged(inputs: np.ndarray, dwell_s: np.ndarray, tau: float) -> np.ndarray:
-    """The equivalent voltage (V) after each dwell through a first-order power-driven lag ``tau`` (s),
-    from 0 V at rest: ``p_k = v_k^2 + (p_{k-1} - v_k^2) exp(-dwell_k / tau)``, ``x = sqrt(p)``."""
-    keep = np.exp(-np.asarray(dwell_s, float) / tau)
-    target = inputs * inputs
-    p = np.empty(inputs.size)
-    prev = 0.0
-    for k in range(inputs.size):
-        prev = target[k] + (prev - target[k]) * keep[k]
-        p[k] = prev
-    return np.sqrt(np.maximum(p, 0.0))
-
-
-def _solve(a: np.ndarray, y: np.ndarray, n_cells: int) -> np.ndarray:
-    """The paper's constrained least squares (``ls``): cells >= 0, bias and thermal term free."""
-    return nnls_free(a, y, n_cells)[0]
-
-
 def _expected(grid: Grid, ref: np.ndarray, check: np.ndarray, span: float, inputs: np.ndarray,
               dwell_s: np.ndarray, nominal: np.ndarray | None, tau: float, noise: float,
               rng: np.random.Generator, thermal_term: bool) -> float:
     """Expected check nRMSE of one plan on the reference device with time constant ``tau``; ``nominal``:
     the regressor of the set-points themselves, for a plan that fits no lag (None: the lag is modelled)."""
-    x = _lagged(inputs, dwell_s, tau)
+    # the reference device through a first-order power-driven lag: the whole rise in one mode, from rest at 0 V
+    x = lagged(Run("plan", inputs, np.zeros(inputs.size), np.cumsum(dwell_s), dwell_s), tau, 1.0, drive="power")
     a = regressor_matrix(grid, x, thermal_term)
     y = a @ ref + noise * rng.standard_normal(inputs.size)
-    w = _solve(a if nominal is None else nominal, y, grid.n_cells)
+    w = nnls_free(a if nominal is None else nominal, y, grid.n_cells)[0]  # the paper's ls: cells >= 0
     err = check @ (w - ref)
     return max(float(np.sqrt(np.mean(err * err))) / span, 1e-12)
 
