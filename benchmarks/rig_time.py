@@ -198,8 +198,7 @@ def _adaptive_run(device, target: float, k: int):
     fed to the design in order, each followed by the stopping test, as the rig does."""
     import copy
 
-    from identify.sequential import MIN_CHECKS
-    from rig.acquisition.adaptive import MIN_POINTS, MOST_POINTS_PER_UNKNOWN, design_for
+    from rig.acquisition.adaptive import MOST_POINTS_PER_UNKNOWN, design_for
 
     # the simulated bench's noise per reading is NOISE_UM, as in default_config(); four readings a point
     design = design_for(default_config(), GRID, (GRID.v_min, GRID.v_max), 4, k)
@@ -226,7 +225,7 @@ def _adaptive_run(device, target: float, k: int):
             design.add(nxt, float(y), kind)
             v.append(nxt)
             predicted = design.predicted_nrmse()
-            if len(v) >= MIN_POINTS and len(design.errors) >= MIN_CHECKS and predicted <= target:
+            if design.reached(target):
                 done = True
                 break
         design._rng = fantasy._rng

@@ -85,6 +85,8 @@ CONFIDENCE = 0.8
 #: Every this many points the method the run's recipe names is refitted without the check points, and its
 #: error on them becomes the prediction.
 REFIT_EVERY = 20
+#: Points before a target may end the run (the prediction needs some data behind it).
+MIN_POINTS = 20
 #: The method the prediction is about (the recipe ``rig acquire --target-nrmse`` records).
 HELD_OUT_METHOD = "smooth_nn"
 #: Check points needed before the held-out estimate replaces the posterior's (fewer give a noisy estimate
@@ -221,12 +223,9 @@ class SequentialDesign:
             model = fit_sequence(self.grid, v, train, HELD_OUT_METHOD, thermal_term=self.thermal_term).model
         except IdentifyError:
             return None
-        from scipy.stats import chi2  # here: importing identify does not pay for scipy.stats
-
         err = model.predict(v)[checks] - y[checks]
         span = float(np.ptp(y[np.isfinite(y)]))
-        m = int(err.size)
-        bound = math.sqrt(float(np.sum(err * err)) / chi2.ppf(1.0 - CONFIDENCE, m))  # upper bound of the RMS
+        bound = math.sqrt(_upper_mean(err * err))  # the upper bound of the RMS
         return bound / span if span > 0 else None
 
     def predicted_nrmse(self) -> float:
@@ -244,13 +243,23 @@ class SequentialDesign:
         """The factor the check points put on the predicted variance (1 until :data:`MIN_CHECKS`)."""
         if len(self.errors) < MIN_CHECKS:
             return 1.0
-        from scipy.stats import chi2  # here: importing identify does not pay for scipy.stats
-
         e = np.asarray(self.errors[-RECENT_CHECKS:])
-        ratios = np.minimum(e[:, 0] / e[:, 1], RATIO_CAP)
-        m = ratios.size
-        return float(np.sum(ratios) / chi2.ppf(1.0 - CONFIDENCE, m))
+        return _upper_mean(np.minimum(e[:, 0] / e[:, 1], RATIO_CAP))
+
+    def reached(self, target: float) -> bool:
+        """Whether a run to ``target`` (check nRMSE) may end now: :data:`MIN_POINTS` points and
+        :data:`MIN_CHECKS` check points behind a prediction at or below it."""
+        return len(self.inputs) >= MIN_POINTS and len(self.errors) >= MIN_CHECKS \
+            and self.predicted_nrmse() <= target
 
     def floor_nrmse(self, span_um: float) -> float:
         """The least check nRMSE any model can show on a device of output span ``span_um``: the noise."""
         return self.noise_um / span_um
+
+
+def _upper_mean(squares: np.ndarray) -> float:
+    """The upper :data:`CONFIDENCE` bound of the mean of ``m`` squared standard normals scaled by an unknown
+    variance, from their values ``(m,)``: ``sum / chi2_{1 - CONFIDENCE}(m)``."""
+    from scipy.stats import chi2  # here: importing identify does not pay for scipy.stats
+
+    return float(np.sum(squares) / chi2.ppf(1.0 - CONFIDENCE, squares.size))

@@ -26,7 +26,7 @@ from collections.abc import Callable
 import numpy as np
 
 from identify import Grid
-from identify.sequential import MIN_CHECKS, SequentialDesign
+from identify.sequential import SequentialDesign
 from sessions import ADAPTIVE_KIND, ExcitationRecord
 
 from .errors import AcquisitionError
@@ -40,8 +40,6 @@ MOST_POINTS_PER_UNKNOWN = 2
 REPORT_EVERY = 10
 #: Codes of ``point_kind`` in the session.
 KIND_CODES = {"design": 0, "check": 1, "replicate": 2}
-#: Points before the target may end the run (the prediction needs some data behind it).
-MIN_POINTS = 20
 
 
 def design_for(cfg, grid: Grid, window: tuple[float, float], readings: int, seed: int,
@@ -88,7 +86,7 @@ class AdaptiveSetpoints:
         self._kind = "design"
 
     def finished(self, k: int, t_s: float) -> bool:
-        if k >= MIN_POINTS and len(self.design.errors) >= MIN_CHECKS and self.predicted <= self.target:
+        if self.design.reached(self.target):
             self.reason = "target reached"
             return True
         if self.cap_s is not None and t_s + self.dwell_s > self.cap_s:

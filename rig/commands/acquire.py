@@ -13,6 +13,7 @@ from click.core import ParameterSource
 
 from drivers.backends import setpoint_rules
 from drivers.config import default_config, load_config
+from identify.sequential import MIN_POINTS
 from rig.acquisition import (
     AcquisitionError,
     AcquisitionPlan,
@@ -30,8 +31,8 @@ from rig.acquisition import (
     summarise,
 )
 from rig.acquisition.recipe import default_recipe, given_recipe
-from rig.acquisition.adaptive import (ADAPTIVE_METHOD, MIN_POINTS, MOST_POINTS_PER_UNKNOWN, AdaptiveSetpoints,
-                                     adaptive_record, check_target, design_for)
+from rig.acquisition.adaptive import (ADAPTIVE_METHOD, MOST_POINTS_PER_UNKNOWN, AdaptiveSetpoints, adaptive_record,
+                                     check_target, design_for)
 from rig.acquisition.timed import CONTRADICTING, check_options, describe, reference_device, timed_plan
 from rig.acquisition.runner import resumable
 from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS, default_grid
@@ -47,6 +48,11 @@ from ..run_driver import config_for_resume, drive
 PLAN_OPTIONS = ("sequence", "levels", "v_min", "v_max", "thermal_term", "points", "seed", "dwell", "dwells",
                 "settle", "poll", "transit", "readings", "measure", "out", "operator", "notes", "identify_with",
                 "rig_time", "target_nrmse")
+
+
+def _given(ctx, names: tuple[str, ...]) -> list[str]:
+    """The options among ``names`` (parameter names) the user gave, as spelled on the command line."""
+    return [f"--{n.replace('_', '-')}" for n in names if ctx.get_parameter_source(n) is not ParameterSource.DEFAULT]
 
 
 @dataclass(frozen=True)
@@ -182,8 +188,7 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
     which `rig identify OUT` uses.
     """
     if resume_path is not None:
-        given = [f"--{n.replace('_', '-')}" for n in PLAN_OPTIONS
-                 if ctx.get_parameter_source(n) is not ParameterSource.DEFAULT]
+        given = _given(ctx, PLAN_OPTIONS)
         if given:
             raise AcquisitionError(f"--resume continues the session's own plan; {', '.join(given)} cannot be used with it")
         session = resumable(resume_path)
@@ -204,15 +209,13 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         raise AcquisitionError("give --out S.h5 for a new session, or --resume S.h5 to continue one")
     timed = None
     if target_nrmse is not None:
-        given = [f"--{n.replace('_', '-')}" for n in ADAPTIVE_CONTRADICTING
-                 if ctx.get_parameter_source(n) is not ParameterSource.DEFAULT]
+        given = _given(ctx, ADAPTIVE_CONTRADICTING)
         if sequence != "damped" or given:
             raise AcquisitionError("--target-nrmse chooses the set-points and the recipe itself; "
                                    f"{', '.join(given) or '--sequence ' + sequence} contradicts it")
         timed = TimedRequest(rig_time, None, target_nrmse)
     elif rig_time is not None:
-        check_options(sequence, [f"--{n.replace('_', '-')}" for n in CONTRADICTING
-                                 if ctx.get_parameter_source(n) is not ParameterSource.DEFAULT])
+        check_options(sequence, _given(ctx, CONTRADICTING))
         timed = TimedRequest(rig_time, readings if ctx.get_parameter_source("readings")
                              is not ParameterSource.DEFAULT else None)
     new_session(config_path, out, sequence=sequence, levels=levels, v_min=v_min, v_max=v_max,
