@@ -42,6 +42,7 @@ from drivers.config import default_config  # noqa: E402
 from drivers.sim import SimVO2  # noqa: E402
 from identify.effects import EFFECTS, pipeline_order  # noqa: E402
 from identify.inverse import invert  # noqa: E402
+from identify.model_json import model_to_dict  # noqa: E402
 from sessions.targets import Targets, write_targets  # noqa: E402
 
 
@@ -93,7 +94,7 @@ def cold(model, y: np.ndarray, directory: Path, repeats: int = 3) -> tuple[float
     """Median wall time (s) of ``rig invert`` in a fresh process, and its own us per target."""
     exe = shutil.which("rig", path=os.path.dirname(sys.executable)) or shutil.which("rig")
     mpath, tpath, out = directory / "model.json", directory / "target.csv", directory / "v.csv"
-    mpath.write_text(json.dumps(model.to_dict()))
+    mpath.write_text(json.dumps(model_to_dict(model)))
     write_targets(tpath, Targets(2.0 * np.arange(1, y.size + 1), y))
     walls, per = [], []
     for _ in range(repeats):

@@ -17,6 +17,7 @@ import numpy as np
 
 from drivers.sim import SimParams, SimVO2
 from identify import Grid, Problem, make_method, random_input
+from identify.model_json import model_to_dict
 from sessions import Trace, read_trace, write_trace
 
 if len(sys.argv) > 1:
@@ -38,6 +39,6 @@ print(f"fit rmse {np.sqrt(np.mean(error ** 2)):.4g} um over {len(trace)} points"
 
 # %% Save it as a model file (what `rig identify -o MODEL.json` writes)
 out = path.with_suffix(".model.json")
-out.write_text(json.dumps(model.to_dict(), indent=1) + "\n", encoding="utf-8")
+out.write_text(json.dumps(model_to_dict(model), indent=1) + "\n", encoding="utf-8")
 print(f"wrote {out}")
 assert np.sqrt(np.mean(error ** 2)) < 0.5

@@ -1,10 +1,12 @@
-"""Fit a method to a recorded input/output sequence: the common path of every front end.
+"""Fit a method to a recorded run: the common path of every front end.
 
-:func:`fit_sequence` chooses the measured rows (all, or ``M`` at random with a
-seed), builds the :class:`~identify.methods.Problem`, runs the method and
-measures the fit; the command line, the study and session re-identification
-all go through it, so they treat the methods alike.
-"""
+:func:`fit_run` is the one fit: a :class:`~identify.runs.Run` and the
+effects to fit with the density (none: equation (22) alone).  Without
+effects it is :func:`fit_sequence`, the fit of input/output arrays, which
+chooses the measured rows (all, or ``M`` at random with a seed), builds the
+:class:`~identify.methods.Problem`, runs the method and measures the fit;
+the command line, the study and session re-identification all go through
+it, so they treat the methods alike."""
 
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .design import thermal_point_row
-from .effects import Effect, parse_effects
+from .effects import Effect
 from .effects.joint import fit_with_effects
 from .errors import IdentifyError
 from .grid import Grid
@@ -139,19 +141,29 @@ def fit_run(
     grid: Grid,
     run: Run,
     method: str = "ls",
-    effects: list | tuple = (),
+    effects: list[Effect] | tuple[Effect, ...] = (),
     *,
     thermal_term: bool = True,
     settings: dict[str, Any] | None = None,
+    curves: np.ndarray | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> FitReport:
-    """Identify a model with ``effects`` (unfitted :class:`identify.effects.Effect` instances, or names)
-    from one recorded :class:`~identify.runs.Run` (its measured points; every applied point sets the
-    memory), jointly with the density (:mod:`identify.effects.joint`).
+    """Identify a model with ``effects`` (unfitted :class:`identify.effects.Effect` instances; none: equation
+    (22) alone) from one recorded :class:`~identify.runs.Run`: its measured points, every applied point
+    setting the memory.  The one fit every front end calls.
 
-    ``info`` adds ``base_rmse`` (the same fit without the effects, um),
-    ``effect_settings`` and the number of linear ``solves``.
+    Without effects this is :func:`fit_sequence` on the run's measured rows (``curves`` and ``progress`` as
+    there); with effects the density is fitted jointly with their terms (:mod:`identify.effects.joint`) and
+    ``info`` adds ``base_rmse`` (the same fit without the effects, um), ``effect_settings`` and the number
+    of linear ``solves``.
     """
-    chosen = [e if isinstance(e, Effect) else parse_effects(e)[0] for e in effects]
+    chosen = list(effects)
+    for e in chosen:
+        if not isinstance(e, Effect):
+            raise TypeError(f"effects are Effect instances (identify.effects.parse_effects), not {e!r}")
+    if not chosen:
+        return fit_sequence(grid, run.inputs, run.outputs, method, rows=run.rows, thermal_term=thermal_term,
+                            settings=settings, curves=curves, progress=progress)
     with blas_threads_for(grid.n_cells + 2):  # the joint fit's many solves and products, on one thread when small
         joint = fit_with_effects(grid, [run], method, chosen, thermal_term=thermal_term, settings=settings)
     return FitReport(

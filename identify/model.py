@@ -10,7 +10,8 @@ the bias (um) and ``c_d`` the linear thermal coefficient (um/V).
 A model may carry fitted effects (:mod:`identify.effects`): terms beside
 equation (22) that act on a whole recorded run (its inputs, time stamps,
 dwells) -- :meth:`PreisachModel.predict_run`.  Without effects a model is
-exactly equation (22) and reads and writes exactly as before.
+exactly equation (22) and reads and writes exactly as before.  Its JSON form
+(model files, ``rig identify --json``, sessions) is :mod:`identify.model_json`.
 """
 
 from __future__ import annotations
@@ -22,16 +23,12 @@ from typing import Any
 import numpy as np
 
 from . import forward
-from .effects import Effect, effect_from_dict, effect_to_dict, pipeline_order
+from .effects import Effect
 from .effects.compose import predict_run
 from .errors import IdentifyError
 from .grid import Grid
 from .memory import InitialState
 from .regressor import n_parameters
-
-#: Version of the JSON-safe dictionary written by :meth:`PreisachModel.to_dict`.
-MODEL_FORMAT = 1
-
 
 @dataclass(frozen=True, eq=False)
 class PreisachModel:
@@ -131,80 +128,3 @@ class PreisachModel:
     def state(self, initial: InitialState = "negative", history: np.ndarray | None = None) -> "forward.HysteresisState":
         """The model with its memory, to be stepped one input at a time."""
         return forward.HysteresisState(self, initial, history)
-
-    # ------------------------------------------------------------ JSON
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe dictionary (read back by :meth:`from_dict`)."""
-        return {
-            "format": MODEL_FORMAT,
-            "levels": self.grid.levels,
-            "v_min": self.grid.v_min,
-            "v_max": self.grid.v_max,
-            "walls": [float(x) for x in self.grid.walls],
-            "mu0": self.mu0,
-            "c_d": self.c_d,
-            "density": self.density_matrix().tolist(),
-            "input_unit": self.input_unit,
-            "output_unit": self.output_unit,
-            **({"metadata": self.metadata} if self.metadata else {}),
-            **({"effects": [effect_dict(e) for e in self.effects]} if self.effects else {}),
-        }
-
-    @classmethod
-    def from_dict(cls, data: Any) -> "PreisachModel":
-        """Read a model written by :meth:`to_dict` (or ``rig identify --json``)."""
-        if not isinstance(data, dict):
-            raise IdentifyError("model must be a JSON object")
-        missing = [k for k in ("walls", "mu0", "c_d", "density") if k not in data]
-        if missing:
-            raise IdentifyError(f"model is missing the key(s) {', '.join(missing)}")
-        fmt = data.get("format", MODEL_FORMAT)
-        if not isinstance(fmt, int) or fmt > MODEL_FORMAT:
-            raise IdentifyError(f"model format {fmt!r} is newer than this program understands")
-        try:
-            walls = np.asarray(data["walls"], dtype=float)
-            density = np.asarray(data["density"], dtype=float)
-            mu0, c_d = float(data["mu0"]), float(data["c_d"])
-        except (TypeError, ValueError) as exc:
-            raise IdentifyError(f"model has a non-numeric value: {exc}") from None
-        if walls.ndim != 1 or walls.size < 2 or not np.all(np.isfinite(walls)):
-            raise IdentifyError("model 'walls' must be a list of at least 2 finite numbers")
-        levels = walls.size - 1
-        if "levels" in data and data["levels"] != levels:
-            raise IdentifyError(
-                f"model says levels={data['levels']!r} but has {walls.size} walls"
-            )
-        grid = Grid(levels, walls[0], walls[-1])
-        if not np.allclose(walls, grid.walls, rtol=0, atol=1e-9 * (grid.v_max - grid.v_min)):
-            raise IdentifyError("model walls are not uniformly spaced")
-        for key, wall in (("v_min", walls[0]), ("v_max", walls[-1])):
-            said = data.get(key)
-            if said is not None and not (isinstance(said, (int, float)) and abs(said - wall) <= 1e-9 * abs(walls[-1] - walls[0])):
-                raise IdentifyError(f"model says {key}={said!r} but its walls {'start' if key == 'v_min' else 'end'} at "
-                                    f"{wall:g}: the model contradicts itself (edited by hand?)")
-        if density.shape != (levels, levels):
-            raise IdentifyError(
-                f"model 'density' must be a {levels}x{levels} list of lists, got shape {density.shape}"
-            )
-        if not np.all(np.isfinite(density)):
-            raise IdentifyError("model 'density' has non-finite values")
-        effects = data.get("effects", [])
-        if not isinstance(effects, list):
-            raise IdentifyError("model 'effects' must be a list of {\"name\", \"params\"} objects")
-        if effects:
-            effects = pipeline_order(effect_from_dict(e) for e in effects)
-        return cls(
-            grid,
-            grid.density_vector(density),
-            mu0,
-            c_d,
-            input_unit=str(data.get("input_unit", "V")),
-            output_unit=str(data.get("output_unit", "um")),
-            metadata=dict(data.get("metadata", {})),
-            effects=tuple(effects),
-        )
-
-
-def effect_dict(effect: Effect) -> dict[str, Any]:
-    """An effect's stored form, ``{"name", "params"}``."""
-    return effect_to_dict(effect)

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from identify import PreisachModel
+from identify.model_json import model_from_dict
 from sessions.formats import FileKind, detect
 
 from .errors import UserError
@@ -26,6 +27,6 @@ def load_model(path: Path) -> PreisachModel:
     except json.JSONDecodeError as exc:
         raise UserError(f"{path}: not a JSON model (line {exc.lineno}: {exc.msg})") from None
     try:
-        return PreisachModel.from_dict(data)
+        return model_from_dict(data)
     except ValueError as exc:
         raise UserError(f"{path}: {exc}") from None

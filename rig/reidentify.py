@@ -38,8 +38,10 @@ from pathlib import Path
 import numpy as np
 
 from identify import Grid, IdentifyError
-from identify.fit import FitReport, fit_run, fit_sequence, measurement_rows
+from identify.effects import Effect, parse_effects
+from identify.fit import FitReport, fit_run, measurement_rows
 from identify.runs import Run
+from identify.model_json import model_to_dict
 from sessions import IdentifyRecipe, ModelRecord, add_model
 from sessions.models import check_model_name
 from sessions.recording import Recording
@@ -59,7 +61,7 @@ def report_dict(report: FitReport, thermal_term: bool, seed: int | None) -> dict
         extra = {"effect_settings": report.info.get("effect_settings")}
     return {
         "method": report.method,
-        **report.model.to_dict(),
+        **model_to_dict(report.model),
         "thermal_term": thermal_term,
         "rmse_um": report.rmse,
         "nrmse": report.nrmse,
@@ -110,7 +112,7 @@ def default_model_name(
     seed: int | None = None,
     thermal_term: bool = True,
     curves: str = "all",
-    effects: tuple[str, ...] = (),
+    effects: tuple[Effect, ...] = (),
 ) -> str:
     """The name a model is stored under when ``--name`` is not given.
 
@@ -138,7 +140,7 @@ def default_model_name(
         parts.append("nothermal")
     if curves != "all":
         parts.append(curves)
-    return "-".join(parts) + "".join(f"+{e.replace(':', '.')}" for e in effects)
+    return "-".join(parts) + "".join(f"+{e.spec.replace(':', '.')}" for e in effects)
 
 
 @dataclass(frozen=True)
@@ -159,8 +161,9 @@ class IdentifyOptions:
     #: The methods' ``solver`` setting ("fast" or "dense"), or None for their default.
     solver: str | None = None
     curves: str = "all"
-    #: Effects fitted jointly with the density (``--with``), as ``NAME[:OPTION]``.
-    effects: tuple[str, ...] = ()
+    #: Effects fitted jointly with the density (``--with``), unfitted, parsed once where they are given
+    #: (:func:`identify.effects.parse_effects`); a session's recipe's are parsed by :func:`apply_recipe`.
+    effects: tuple[Effect, ...] = ()
     #: The settings (names among :data:`RECIPE_SETTINGS`) left to a session's identification recipe: for a
     #: session that records one they come from it; the values above are what any other file gets.  Empty
     #: (the default): the options are used as they are.  ``rig identify`` leaves every setting it is not given.
@@ -195,10 +198,8 @@ def apply_recipe(o: IdentifyOptions, recipe: IdentifyRecipe | None, path: Path) 
             raise UserError(f"{path}: its identification recipe names the method {changes['method']!r}, which this "
                             f"version does not know; give --method ({', '.join(METHODS)})")
     if changes.get("effects"):
-        from identify.effects import parse_effects
-
         try:
-            parse_effects(changes["effects"])
+            changes["effects"] = tuple(parse_effects(changes["effects"]))
         except IdentifyError as exc:
             raise UserError(f"{path}: its identification recipe's effects: {exc}; give --with") from None
     return dataclasses.replace(o, **changes), sources
@@ -215,8 +216,9 @@ class IdentifyJob:
     is not stored; ``partial`` describes a partial session (else ``None``);
     ``label`` prefixes fitting errors (set in batches, to name the file);
     ``curves`` ``(n,)`` the curve of every point (-1: none), when the run has curves;
-    ``effects`` the effects to fit with the density and ``run`` the recorded run
-    they act on (time stamps, dwells; its outputs at ``rows`` only).
+    ``effects`` the (unfitted) effects to fit with the density, none for equation
+    (22) alone, and ``run`` the recorded run the fit reads (time stamps, dwells;
+    its outputs at ``rows`` only).
     """
 
     path: Path
@@ -229,14 +231,14 @@ class IdentifyJob:
     seed: int | None
     input_unit: str
     output_unit: str
+    run: Run
     store_as: str | None = None
     partial: str | None = None
     label: str | None = None
     solver: str | None = None
     curves: np.ndarray | None = None
     curve_selection: str = "all"
-    effects: tuple[str, ...] = ()
-    run: Run | None = None
+    effects: tuple[Effect, ...] = ()
     #: The grid the session records (None: none), which :func:`check_grid` compares ``grid`` with.
     recorded_grid: Grid | None = None
     #: The identification recipe the session records (None: none) and where each setting of this job came
@@ -287,7 +289,7 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
             what += f" on the {o.curves} curves"
         raise UserError(f"--measurements {o.measurements} must be between 1 and {what}")
     rows = measurement_rows(grid, data.inputs, o.measurements, o.seed, o.thermal_term, candidates)
-    run = _effects_run(path, data, grid, rows, o, sources["effects"]) if o.effects else None
+    run = _checked_run(path, data, grid, rows, o, sources["effects"])
     s = data.session
     return IdentifyJob(
         path=path,
@@ -341,15 +343,16 @@ def check_grid(job: IdentifyJob, yes: bool) -> None:
                         f"thermal term cannot be identified, because {mismatch}; use -L {recorded.levels} (or no -L)")
 
 
-def _effects_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: IdentifyOptions,
+def _checked_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: IdentifyOptions,
                  source: str = "option") -> Run:
-    """The run the effects act on, checked before anything is fitted: known effects, a method that can
-    fit them, and runs that can identify them (one-line errors otherwise; ``source``: where the effects
-    came from, ``session`` naming the session's recipe)."""
-    from identify.effects import parse_effects
+    """The run to fit (its outputs at ``rows`` only), checked before anything is fitted when effects are
+    asked for: a method that can fit them, and a run that can identify them (one-line errors otherwise;
+    ``source``: where the effects came from, ``session`` naming the session's recipe)."""
     from identify.methods import METHODS
 
-    effects = parse_effects(o.effects)
+    run = run_of(data, rows=rows)
+    if not o.effects:
+        return run
     given = "--with" if source != "session" else f"{path}: the effects of its identification recipe"
     if METHODS[o.method].needs_curves:
         raise UserError(f"{given}: {o.method} takes the density from the curves' second differences and fits "
@@ -357,8 +360,7 @@ def _effects_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: I
     if METHODS[o.method].needs_square:
         raise UserError(f"{given}: {o.method} needs the square damped-oscillation design, which has no room for "
                         "effect terms; fit effects with ls or smooth_nn (or everett on FORC data)")
-    run = run_of(data, rows=rows)
-    for e in effects:
+    for e in o.effects:
         why = e.identifiable((run,), grid)
         if why is not None:
             raise UserError(f"{path}: {e.name} cannot be identified from this run: {why}")
@@ -370,13 +372,8 @@ def fit_job(job: IdentifyJob, progress: Callable[[str], None] | None = None) -> 
     ``progress``: see :func:`identify.fit.fit_sequence` (the fit of a model without effects reports stages)."""
     settings = None if job.solver is None else {"solver": job.solver}
     try:
-        if job.effects:
-            report = fit_run(job.grid, job.run, job.method, list(job.effects), thermal_term=job.thermal_term,
-                             settings=settings)
-        else:
-            report = fit_sequence(job.grid, job.inputs, job.outputs, job.method, rows=job.rows,
-                                  thermal_term=job.thermal_term, settings=settings, curves=job.curves,
-                                  progress=progress)
+        report = fit_run(job.grid, job.run, job.method, job.effects, thermal_term=job.thermal_term,
+                         settings=settings, curves=job.curves, progress=progress)
     except IdentifyError as exc:
         if job.label is None:
             raise
@@ -391,11 +388,7 @@ def fit_job(job: IdentifyJob, progress: Callable[[str], None] | None = None) -> 
 
 def thermal_term_used(job: IdentifyJob) -> bool:
     """Whether the fit had the thermal term: asked for, and not replaced by an effect (``reversible``)."""
-    if not job.effects:
-        return job.thermal_term
-    from identify.effects import parse_effects
-
-    return job.thermal_term and not any(e.replaces_thermal_term for e in parse_effects(job.effects))
+    return job.thermal_term and not any(e.replaces_thermal_term for e in job.effects)
 
 
 def store_model(job: IdentifyJob, report: FitReport, force: bool) -> ModelRecord:
@@ -412,7 +405,7 @@ def recipe_dict(job: IdentifyJob) -> dict:
     with the session's recipe as stored (``stored``)."""
     g = job.grid
     return {"method": job.method, "levels": g.levels, "v_min": g.v_min, "v_max": g.v_max,
-            "thermal_term": job.thermal_term, "effects": list(job.effects), "from": dict(job.sources or {}),
+            "thermal_term": job.thermal_term, "effects": [e.spec for e in job.effects], "from": dict(job.sources or {}),
             "stored": None if job.recipe is None else job.recipe.to_dict()}
 
 

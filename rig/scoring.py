@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from identify import IdentifyError
-from identify.validation import ValidationReport, check_covers, validate_model, validate_run
+from identify.validation import ValidationReport, check_covers, validate_run
 from sessions import ModelRecord
 from sessions.recording import Recording
 
@@ -35,17 +35,10 @@ def score_model(
             f"{data.path}: records {data.input_unit} in and {data.output_unit} out, but model "
             f"{record.name!r} maps {model.input_unit} to {model.output_unit}"
         )
-    outputs = data.outputs
-    if rows is not None:
-        outputs = np.full(data.outputs.shape, np.nan)
-        outputs[rows] = data.outputs[rows]
     try:
-        if not fitted_on:
-            compared = np.flatnonzero(np.isfinite(outputs))
-            if compared.size:
-                check_covers(model.grid, data.inputs[compared], model.input_unit)
-        if model.effects:
-            return validate_run(model, run_of(data, rows=rows), check_range=False)
-        return validate_model(model, data.inputs, outputs, check_range=False)
+        run = run_of(data, rows=rows)
+        if not fitted_on and run.rows.size:
+            check_covers(model.grid, run.inputs[run.rows], model.input_unit)
+        return validate_run(model, run, check_range=False)
     except IdentifyError as exc:
         raise UserError(f"{data.path}: model {record.name!r}: {exc}") from None

@@ -1,6 +1,6 @@
 """Identified models stored inside a session, under ``/models/<name>``.
 
-A model group holds what :meth:`identify.PreisachModel.to_dict` says, split
+A model group holds what :func:`identify.model_json.model_to_dict` says, split
 so that HDF5 tools show it plainly:
 
 * datasets ``walls`` ``(L+1,)`` (input unit), ``density`` ``(L, L)`` (output
@@ -32,6 +32,7 @@ import numpy as np
 
 from identify import IdentifyError, PreisachModel
 from identify.fit import FitReport
+from identify.model_json import model_from_dict, model_to_dict
 
 from .checksums import create_checked, read_checked
 from .errors import DataFileError
@@ -107,7 +108,7 @@ def _json(obj: Any) -> str:
 
 def write_model_group(parent: h5py.Group, record: ModelRecord) -> h5py.Group:
     """Create ``parent/<name>`` holding ``record`` (the name must be free)."""
-    d = record.model.to_dict()
+    d = model_to_dict(record.model)
     g = parent.create_group(record.name)
     create_checked(g, "walls", np.asarray(d["walls"], dtype=float))
     create_checked(g, "density", np.asarray(d["density"], dtype=float))
@@ -144,7 +145,7 @@ def read_model_group(group: h5py.Group) -> ModelRecord:
         if "effects" in a:
             data["effects"] = json.loads(a["effects"])
         data = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in data.items()}
-        model = PreisachModel.from_dict(data)
+        model = model_from_dict(data)
         return ModelRecord(
             name=name,
             method=str(a["method"]),

@@ -30,6 +30,7 @@ from identify.effects import OUTPUT, Effect, EffectNotApplicable
 from identify.effects.base import finite, needs_heater, require_params, single_columns
 from identify.methods.least_squares import LeastSquares
 from identify.runs import Run
+from identify.model_json import model_from_dict, model_to_dict
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -131,11 +132,11 @@ def test_the_effect_is_named_fitted_stored_and_diagnosed(plugged):
     assert "setpoint_cube" in NAMES and [e.name for e in library(["setpoint_cube"])] == ["setpoint_cube"]
     truth = truth_with_cube()
     run = a_run(truth)
-    report = fit_run(truth.grid, run, "ls", ["setpoint_cube"])
+    report = fit_run(truth.grid, run, "ls", effects_registry.parse_effects("setpoint_cube"))
     assert [e.name for e in report.model.effects] == ["setpoint_cube"]
-    stored = report.model.to_dict()
+    stored = model_to_dict(report.model)
     assert stored["effects"][0]["name"] == "setpoint_cube" and set(stored["effects"][0]) == {"name", "params"}
-    back = PreisachModel.from_dict(json.loads(json.dumps(stored)))
+    back = model_from_dict(json.loads(json.dumps(stored)))
     np.testing.assert_allclose(back.predict_run(run), report.model.predict_run(run), rtol=0, atol=1e-12)
     # what a run must record: a heater voltage
     other = dataclasses.replace(run, input_unit="T")

@@ -14,6 +14,7 @@ from drivers.sim import DeviceRefused, Effect, SimParams, SimVO2
 from drivers.sim.builtin_effects import make_effects
 from drivers.sim.transition import transition_density
 from identify import Grid, PreisachModel, damped_oscillation, random_input
+from identify.model_json import model_from_dict, model_to_dict
 
 QUIET = dict(psd_noise_V=0.0)
 
@@ -193,7 +194,7 @@ def test_resaturating_and_replaying_restores_the_memory_state():
 
 def test_true_model_round_trips_through_json():
     model = SimVO2(SimParams(levels=6)).true_model()
-    again = PreisachModel.from_dict(json.loads(json.dumps(model.to_dict())))
+    again = model_from_dict(json.loads(json.dumps(model_to_dict(model))))
     np.testing.assert_array_equal(again.density, model.density)
     assert (again.mu0, again.c_d) == (2.0, -1.5)
     assert again.metadata["params"]["time_constant_s"] == 0.5

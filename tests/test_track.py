@@ -12,6 +12,7 @@ from drivers import SensorError, default_config, open_rig
 from drivers.clock import VirtualClock
 from drivers.sim import SimParams, SimVO2
 from identify import Grid, PreisachModel
+from identify.model_json import model_from_dict, model_to_dict
 from rig.acquisition import acquire, resume
 from rig.tracking.run import plan_track, setpoints_for
 from rig.tracking.source import load_source
@@ -29,7 +30,7 @@ def true_model(tmp_path, name="model.json", **sim):
     """The built-in simulated device's own model (equation (22) exactly), as a model JSON file."""
     model = SimVO2(SimParams(**sim), VirtualClock()).true_model()
     path = tmp_path / name
-    path.write_text(json.dumps(model.to_dict()))
+    path.write_text(json.dumps(model_to_dict(model)))
     return path, model
 
 
@@ -63,7 +64,7 @@ def test_rig_invert_writes_set_points_that_the_model_maps_onto_the_targets(tmp_p
     # a target out of reach from the memory state is reported, with the closest output: one triangular cell
     # on [0, 1] V, u = 2 v^2 - v - 1 rising from 0 V; from the top (0 um at 1 V) the way down ends at -1 um (0 V)
     cell = PreisachModel(Grid(1, 0.0, 1.0), np.array([1.0]), 0.0, -1.0)
-    (tmp_path / "cell.json").write_text(json.dumps(cell.to_dict()))
+    (tmp_path / "cell.json").write_text(json.dumps(model_to_dict(cell)))
     r = rig_here("invert", tmp_path / "cell.json", targets_file(tmp_path, [0.0, -1.12], name="t2.csv"), "--out",
                  tmp_path / "v2.csv", "--json")
     assert r.code == 0, r.err
@@ -119,7 +120,7 @@ def test_bad_targets_are_one_line_exit_2_and_nothing_is_written(tmp_path, case, 
 @pytest.mark.parametrize("command", ["invert", "track"])
 def test_a_model_in_other_units_is_refused(tmp_path, command):
     model_path, model = true_model(tmp_path)
-    data = model.to_dict()
+    data = model_to_dict(model)
     data["output_unit"] = "A m^2"
     model_path.write_text(json.dumps(data))
     target = targets_file(tmp_path, [1.0, 2.0])
@@ -129,10 +130,10 @@ def test_a_model_in_other_units_is_refused(tmp_path, command):
 
 
 def test_a_grid_that_does_not_cover_the_heater_window_is_refused_before_the_rig_is_touched(tmp_path):
-    model = PreisachModel.from_dict({**true_model(tmp_path)[1].to_dict()})
+    model = model_from_dict({**model_to_dict(true_model(tmp_path)[1])})
     small = dataclasses.replace(model, grid=type(model.grid)(model.grid.levels, 0.0, 3.0))
     path = tmp_path / "small.json"
-    path.write_text(json.dumps(small.to_dict()))
+    path.write_text(json.dumps(model_to_dict(small)))
     out = tmp_path / "t.h5"
     r = rig_here("track", path, "--target", targets_file(tmp_path, [-5.0, -3.0]), "--out", out)
     assert_one_line_error(r, "covers [0, 3] V but the heater's window is [0, 6] V")
@@ -141,7 +142,7 @@ def test_a_grid_that_does_not_cover_the_heater_window_is_refused_before_the_rig_
 
 def test_models_that_cannot_be_inverted_are_refused_in_one_line(tmp_path):
     model_path, model = true_model(tmp_path)
-    data = model.to_dict()
+    data = model_to_dict(model)
     data["effects"] = [{"name": "first_point", "params": {"coefficients_um": [0.1] * 7, "decay": 0, "cell": 0.2}}]
     model_path.write_text(json.dumps(data))
     r = rig_here("invert", model_path, targets_file(tmp_path, [1.0, 2.0]), "--out", tmp_path / "v.csv")
@@ -210,7 +211,7 @@ def test_a_resumed_tracking_run_continues_exactly_as_an_uninterrupted_one(tmp_pa
     _, true = true_model(tmp_path)
     off = dataclasses.replace(true, mu0=true.mu0 + 0.3)
     path = tmp_path / "off.json"
-    path.write_text(json.dumps(off.to_dict()))
+    path.write_text(json.dumps(model_to_dict(off)))
     cfg = default_config(psd_noise_V=0.0)
     src, plan = _plan(path, tmp_path, feedback)
     from sessions import TRACKING_COLUMNS as cols
@@ -374,7 +375,7 @@ def test_messages_name_the_file_line_of_a_target(tmp_path):
 def test_a_model_whose_range_contradicts_its_walls_is_refused(tmp_path, command):
     """Issue 28, item 15: a model JSON whose v_min/v_max contradict its walls was accepted."""
     model_path, model = true_model(tmp_path)
-    data = model.to_dict()
+    data = model_to_dict(model)
     data["v_max"] = 3.0  # its walls end at 6 V
     model_path.write_text(json.dumps(data))
     trace = tmp_path / "tr.csv"

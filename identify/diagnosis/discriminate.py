@@ -106,12 +106,6 @@ def probe(v_V: np.ndarray, dwell_s: np.ndarray, readings: int | None = None, nam
     return Run(name, v, np.zeros(v.size), np.cumsum(d), d, readings, initial_V)
 
 
-def predict(model: PreisachModel, run: Run) -> np.ndarray:
-    """``model``'s reading at every point of ``run`` (with its effects: those a new run does not know, such
-    as a drift of another run, contribute nothing)."""
-    return model.predict_run(run) if model.effects else model.predict(run.inputs)
-
-
 def as_plan(effect, run_name: str, plan_name: str = "plan"):
     """A fitted per-run effect (a drift) that acts on a run named ``plan_name`` as it did on ``run_name``
     (its realisation there, on the plan's clock): how a rival that is a drift predicts a new run."""
@@ -150,7 +144,7 @@ def separation(rivals: list[Rival], base: PreisachModel, run: Run, sigma: float)
         raise IdentifyError("the noise level must be positive to design a discriminating run")
     f0 = base.predict(run.inputs)
     try:
-        preds = [[predict(m, run) for m in r.models] for r in rivals]
+        preds = [[m.predict_run(run) for m in r.models] for r in rivals]
     except EffectNotApplicable:  # a plan too short for an effect to act (one point: no time)
         return 0.0, {f"{a.name}|{b.name}": 0.0 for a, b in combinations(rivals, 2)}
     pairs = {}
@@ -325,7 +319,7 @@ def achieved(rivals: list[Rival], base: PreisachModel, run: Run, sigma: float) -
     f0 = base.predict(run.inputs)
     rss = {}
     for r in rivals:
-        f = predict(r.models[0], run)
+        f = r.models[0].predict_run(run)
         cols = _refit_columns(r, f0, f, run)[rows]
         rss[r.name] = _unexplained(y - f[rows], cols) ** 2
     out = {}

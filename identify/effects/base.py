@@ -234,6 +234,11 @@ class Effect(ABC):
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.params!r})"
 
+    @property
+    def spec(self) -> str:
+        """How the command line names it: ``NAME`` or ``NAME:OPTION`` (the options set, :attr:`options`)."""
+        return ":".join([self.name, *(o for o in self.options if getattr(self, o, False))])
+
     # ------------------------------------------------------------ what runs must record
     def applicable(self, runs: tuple[Run, ...]) -> str | None:
         """Why this effect cannot act on these runs at all (None: it can): a run lacks what it needs

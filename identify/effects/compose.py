@@ -124,11 +124,14 @@ def deflection(model: HostModel, run: Run, effects: Iterable[Effect] | None = No
 
 
 def predict_run(model: HostModel, run: Run, effects: Iterable[Effect] | None = None) -> np.ndarray:
-    """The model's reading (um) at every point of ``run``, ``(n,)``, from negative saturation.
+    """The model's reading (um) at every point of ``run``, ``(n,)``, from negative saturation, with
+    ``effects`` (default: the model's own; none: equation (22) alone).
 
     Raises :class:`EffectNotApplicable` when the run lacks what an effect needs.
     """
     effects = list(model.effects if effects is None else effects)
+    if not effects:  # equation (22) alone: the memory curve of the heater voltage
+        return model.without_effects().predict(run.inputs)
     check_applicable(effects, run)
     return sensed(effects, deflection(model, run, effects))
 

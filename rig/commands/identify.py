@@ -11,6 +11,7 @@ from click.core import ParameterSource
 
 from identify import METHODS
 from identify.methods.base import SOLVERS
+from identify.effects import parse_effects
 from identify.effects import spellings as effect_spellings
 
 from ..budget.identification import PROGRESS_AFTER_S, job_cost
@@ -133,11 +134,8 @@ def identify(ctx, files, levels, v_min, v_max, method, solver, measurements, see
     if "" in names:
         given = ", ".join(f"--with {spec!r}" for spec in with_effects)
         raise UserError(f"{given}: names an empty effect; give EFFECT[,EFFECT...] (or leave --with out for none)")
-    effects = tuple(names)
-    if effects:
-        from identify.effects import parse_effects
-
-        parse_effects(effects)  # unknown names, options or repeats: one line before any file is read
+    # parsed once, here: unknown names, options or repeats are one line before any file is read
+    effects = tuple(parse_effects(names))
     params = {"method": "method", "levels": "levels", "v_min": "v_min", "v_max": "v_max",
               "thermal_term": "thermal_term", "effects": "with_effects"}
     from_recipe = frozenset(key for key in RECIPE_SETTINGS
@@ -198,7 +196,7 @@ def describe_sources(job) -> str:
     items = [("method", f"method {job.method}"), ("levels", f"L={g.levels}"),
              ("v_min", f"v_min {g.v_min:g}"), ("v_max", f"v_max {g.v_max:g}"),
              ("thermal_term", "thermal term" if job.thermal_term else "no thermal term"),
-             ("effects", f"with {','.join(job.effects)}" if job.effects else "no effects")]
+             ("effects", f"with {','.join(e.spec for e in job.effects)}" if job.effects else "no effects")]
     words = {"session": "the session's recipe", "option": "given", "default": "default"}
     groups: dict[str, list[str]] = {k: [] for k in words}  # in this order: the session's, given, default
     for key, text in items:

@@ -35,10 +35,7 @@ def predict(model_file, file, partial, as_json):
     if (model.input_unit, model.output_unit) != (data.input_unit, data.output_unit):
         raise UserError(f"{file}: records {data.input_unit} in and {data.output_unit} out, but the model in "
                         f"{model_file} maps {model.input_unit} to {model.output_unit}")
-    if model.effects:
-        prediction = model.predict_run(run_of(data))
-    else:
-        prediction = model.predict(data.inputs)
+    prediction = model.predict_run(run_of(data))
     measured = np.isfinite(data.outputs)
     err = prediction[measured] - data.outputs[measured]
     result = {"prediction_um": prediction, "rmse_um": rmse(err), "max_abs_um": max_abs(err),
