@@ -185,6 +185,28 @@ def feedback_of(run: Run, prediction: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(run.outputs), run.outputs, prediction)
 
 
+def felt(output: np.ndarray, source: str, mu0: float, c_d: float, thermal: np.ndarray) -> np.ndarray:
+    """What the hysterons feel of an ``output`` (um): all of it (``source="output"``), or its phase part, the
+    bias ``mu0`` (um) and thermal term ``c_d`` (um/V) times ``thermal`` (V) taken off (``"phase"``)."""
+    return output if source == "output" else output - mu0 - c_d * np.asarray(thermal, dtype=float)
+
+
+@dataclass(frozen=True)
+class Loop:
+    """A feedback of the output onto the hysterons' input (:attr:`Effect.feeds_back`), as the prediction's
+    fixed point ``x = a + k u`` (``x^2 = a^2 + k u`` when ``drive`` is ``"power"``) needs it: gain ``k``
+    (V/um or V^2/um), what drives the input (``voltage`` or ``power``), what the hysterons feel of the output
+    ``u`` (``output``: all of it; ``phase``: its phase-transition part)."""
+
+    k: float
+    drive: str = "voltage"
+    source: str = "output"
+
+    def felt(self, output: np.ndarray, mu0: float, c_d: float, thermal: np.ndarray) -> np.ndarray:
+        """What the hysterons feel of ``output`` (um), ``(n,)``: see :func:`felt`."""
+        return felt(output, self.source, mu0, c_d, thermal)
+
+
 class Effect(ABC):
     """One unmodelled effect (see the module doc); ``params`` None until fitted."""
 
@@ -223,6 +245,9 @@ class Effect(ABC):
     inversion: ClassVar[str | None] = None
     #: (``static`` inversion) The degree of its polynomial of the set-point between breakpoints.
     static_degree: ClassVar[int] = 0
+    #: (input effects) Its transform feels the model's own output (mean-field feedback): a prediction then
+    #: solves the fixed point of :meth:`loop` point by point (:mod:`identify.effects.compose`).
+    feeds_back: ClassVar[bool] = False
 
     def __init__(self, params: dict[str, Any] | None = None) -> None:
         self.params = None if params is None else self.check_params(dict(params))
@@ -304,7 +329,22 @@ class Effect(ABC):
         """Largest plausible ``|coefficient|`` by label, where physics bounds it (the diagnosis's visibility test)."""
         return {}
 
+    def knows_run(self, run_name: str) -> bool:
+        """(:attr:`per_run` effects) Whether it was fitted on a run of this name (its parameters hold that
+        run's realisation under ``"runs"``); other effects know every run."""
+        return not self.per_run or run_name in (self.params or {}).get("runs", {})
+
+    def loop(self) -> Loop | None:
+        """(:attr:`feeds_back`, fitted) The feedback the prediction solves for; None when there is none
+        (not fitted, or a zero gain): the transform then needs no feedback."""
+        return None
+
     # ------------------------------------------------------------ how it is inverted (fitted)
+    def modes(self) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        """(``lag`` inversion, fitted) Its slow thermal modes: time constants (s) ``(m,)``, the fraction of
+        the rise each holds ``(m,)``, and what drives each (``"power"`` or ``"voltage"``)."""
+        raise NotImplementedError(f"effect {self.name!r} has no thermal modes")
+
     def inverted_as(self) -> str | None:
         """How the inversion takes this fitted instance (default :attr:`inversion`); an instance whose
         parameters make it change nothing may say ``"inert"``."""

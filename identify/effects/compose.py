@@ -6,7 +6,8 @@ sees the result, equation (22) gives the output with the thermal term on
 the heater voltage (or on the lagged input), the output effects add their
 contributions and the sensor effects map it to the reading.
 
-With ``interaction`` the hysterons' input depends on the output, which
+With a feedback (an effect that :attr:`~identify.effects.base.Effect.feeds_back`:
+``interaction``) the hysterons' input depends on the output, which
 depends on the memory state the input sets.  :func:`predict_run` then
 steps the memory one point at a time and solves the fixed point
 
@@ -40,7 +41,6 @@ from ..grid import Grid
 from ..runs import Run
 from . import pipeline_order
 from .base import INPUT, OUTPUT, SENSOR, Effect, EffectNotApplicable, HostModel, start_of
-from .interaction import Interaction, felt
 
 
 def check_applicable(effects: Iterable[Effect], run: Run) -> None:
@@ -63,8 +63,9 @@ def hysteron_inputs(effects: Iterable[Effect], run: Run, feedback: np.ndarray | 
         if e.stage != INPUT or not e.fitted:
             continue
         fb = feedback
-        if isinstance(e, Interaction) and feedback is not None and model is not None:
-            fb = felt(feedback, e.source, model.mu0, model.c_d, thermal)
+        loop = e.loop() if e.feeds_back else None
+        if loop is not None and feedback is not None and model is not None:
+            fb = loop.felt(feedback, model.mu0, model.c_d, thermal)
         x = e.transform(run, x, fb)
         if e.drives_thermal_term:
             thermal = x
@@ -108,16 +109,17 @@ def deflection(model: HostModel, run: Run, effects: Iterable[Effect] | None = No
     (with ``interaction``); None solves the fixed point (prediction)."""
     effects = list(model.effects if effects is None else effects)
     static = output_contributions(effects, run, which="static")
-    inter = next((e for e in effects if isinstance(e, Interaction) and e.k != 0.0), None)
+    inter = next((e for e in effects if e.feeds_back and e.loop() is not None), None)
     if inter is None or feedback is not None:
         x, thermal = hysteron_inputs(effects, run, feedback, model)
         u = preisach_output(model, x, thermal)
     else:  # the hysterons feel equation (22)'s output and the static contributions, or its phase part alone
+        loop = inter.loop()
         others = [e for e in effects if e is not inter]
         a, thermal = hysteron_inputs(others, run, None, model)
-        b = model.mu0 + model.c_d * thermal + static if inter.source == "output" else np.zeros(run.n)
-        u = _fixed_point(model, a, b, inter.k, inter.drive) + (model.mu0 + model.c_d * thermal
-                                                               if inter.source == "phase" else -static)
+        b = model.mu0 + model.c_d * thermal + static if loop.source == "output" else np.zeros(run.n)
+        u = _fixed_point(model, a, b, loop.k, loop.drive) + (model.mu0 + model.c_d * thermal
+                                                             if loop.source == "phase" else -static)
     phase = u - model.mu0 - model.c_d * thermal
     return u + static + output_contributions(effects, run, u, which="driven", phase=phase,
                                              start=start_of(model, run.initial_V))

@@ -30,7 +30,8 @@ import numpy as np
 from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
-from .base import INPUT, Columns, Context, Effect, finite, needs_reversals, require_params, single_columns
+from .base import (INPUT, Columns, Context, Effect, Loop, felt, finite, needs_reversals, require_params,
+                   single_columns)
 
 #: Step of the secant in ``k``, relative to the input range over the output range.
 STEP = 1e-3
@@ -49,6 +50,7 @@ class Interaction(Effect):
     summary = "mean-field interaction: the hysterons feel the output as well as the input (x = v + k u)"
     stage = INPUT
     inversion = "feedback"
+    feeds_back = True
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         require_params(params, ("k",), self.name)
@@ -70,6 +72,9 @@ class Interaction(Effect):
     @property
     def k(self) -> float:
         return self.params["k"] if self.fitted else 0.0
+
+    def loop(self) -> Loop | None:
+        return Loop(self.k, self.drive, self.source) if self.fitted and self.k != 0.0 else None
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         return needs_reversals(runs, "mean-field feedback shows only where the input turns back")
@@ -136,11 +141,6 @@ class Interaction(Effect):
         """The direction of ``k`` a column is taken in: the setting's sign unfitted (the diagnosis), else up
         (a fitted ``k`` is refined both ways by Gauss--Newton)."""
         return 1.0 if self.fitted else float(setting.get("sign", 1.0))
-
-
-def felt(output: np.ndarray, source: str, mu0: float, c_d: float, thermal: np.ndarray) -> np.ndarray:
-    """What the hysterons feel of an ``output`` (um): all of it, or its phase part (bias and thermal term off)."""
-    return output if source == "output" else output - mu0 - c_d * np.asarray(thermal, dtype=float)
 
 
 def shifted(x: np.ndarray, amount: np.ndarray, drive: str) -> np.ndarray:

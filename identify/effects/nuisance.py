@@ -27,7 +27,7 @@ from .joint import context_of
 
 def unknown_nuisance(model: PreisachModel, run: Run) -> list[Effect]:
     """The model's per-run effects that do not know ``run`` (fitted on other runs)."""
-    return [e for e in model.effects if e.per_run and run.name not in (e.params or {}).get("runs", {})]
+    return [e for e in model.effects if not e.knows_run(run.name)]
 
 
 def held_out_prediction(model: PreisachModel, run: Run) -> tuple[np.ndarray, dict[str, Any]]:

@@ -202,6 +202,10 @@ class ThermalLag(Effect):
         taus = np.asarray(TIME_CONSTANTS_S * (2 if drive == "both" else 1))
         return drive, taus, np.zeros(taus.size)
 
+    def modes(self) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        drive, taus, fractions = self._state({})
+        return taus.astype(float), fractions.astype(float), mode_drives(drive, taus.size)
+
     def transform(self, run: Run, x: np.ndarray, feedback: np.ndarray | None = None) -> np.ndarray:
         drive, taus, fractions = self._state({})
         if not np.any(fractions):

@@ -47,7 +47,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..effects import Effect
-from ..effects.thermal_lag import mode_drives
 from ..errors import IdentifyError
 from ..grid import Grid
 from ..runs import Run
@@ -158,10 +157,8 @@ class LagState:
     """
 
     def __init__(self, effect: Effect) -> None:
-        p = effect.params
-        self.taus = np.asarray(p["time_constants_s"], dtype=float)
-        self.fractions = np.asarray(p["fractions"], dtype=float)
-        self.power = np.asarray([d == "power" for d in mode_drives(p["drive"], self.taus.size)])
+        self.taus, self.fractions, drives = effect.modes()
+        self.power = np.asarray([d == "power" for d in drives])
         self.states = np.zeros(self.taus.size)  # the run starts at 0 V, settled
         for which in (True, False):
             if np.sum(self.fractions[self.power == which]) >= 1.0:
@@ -225,7 +222,7 @@ class EffectPlan:
     static: list[Effect]
     offsets: list[Effect]
     lag: Effect | None
-    interaction: Effect | None
+    feedback: Effect | None
     sensor: Effect | None
     inert: list[Effect]
 
@@ -247,8 +244,7 @@ def plan_effects(effects: tuple[Effect, ...] | list[Effect], run_name: str) -> E
         if not e.fitted:
             continue
         if e.per_run:
-            fitted_here = run_name in (e.params or {}).get("runs", {})
-            if fitted_here:
+            if e.knows_run(run_name):
                 raise _refuse(e, f"it was fitted on a run named {run_name!r}, the run being inverted; a drift "
                                  "is known only after the run")
             plan.inert.append(e)
@@ -264,15 +260,15 @@ def plan_effects(effects: tuple[Effect, ...] | list[Effect], run_name: str) -> E
         elif kind == "lag":
             plan.lag = e
         elif kind == "feedback":
-            plan.interaction = e
+            plan.feedback = e
         elif kind == "sensor":
             plan.sensor = e
         else:  # "inert"
             plan.inert.append(e)
-    moved = plan.lag is not None or plan.interaction is not None
+    moved = plan.lag is not None or plan.feedback is not None
     if moved and (plan.static or plan.offsets):
         what = ", ".join(e.name for e in plan.static + plan.offsets)
-        inp = " and ".join(e.name for e in (plan.lag, plan.interaction) if e is not None)
+        inp = " and ".join(e.name for e in (plan.lag, plan.feedback) if e is not None)
         raise NotInvertible(f"cannot invert {inp} together with {what}: with the hysterons' input moved off the "
                             "set-point, those effects are no longer polynomials on the memory curve's pieces")
     return plan

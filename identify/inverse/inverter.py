@@ -133,7 +133,8 @@ class Inverter:
         self.plan = plan
         self.static = static_part(plan.static, grid)
         self.lag = LagState(plan.lag) if plan.lag is not None else None
-        self.k = float(plan.interaction.params["k"]) if plan.interaction is not None else 0.0
+        loop = plan.feedback.loop() if plan.feedback is not None else None
+        self.k = float(loop.k) if loop is not None else 0.0
         self.sensor = plan.sensor
         if self.lag is not None and lo < 0.0:
             lo = 0.0  # the beam heats as v^2: the lag's closed form takes v >= 0
