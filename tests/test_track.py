@@ -322,7 +322,7 @@ def test_a_dwell_a_few_ms_longer_than_planned_does_not_make_a_target_unreachable
     target out of reach: the flag is the inversion's verdict, and the feedback keeps learning."""
     from identify.effects import EFFECTS
     from identify.inverse import NoFeedback
-    from rig.tracking.setpoints import TrackingSetpoints
+    from rig.tracking.inverted_setpoints import TrackingSetpoints
 
     grid = Grid(8, 0.0, 6.0)
     density = np.random.default_rng(3).uniform(0.1, 1.0, grid.n_cells)
