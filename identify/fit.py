@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .design import thermal_point_row
+from .regressor_design import thermal_point_row
 from .effects import Effect, parse_effects
 from .effects.joint import fit_with_effects
 from .errors import IdentifyError
@@ -64,7 +64,7 @@ def measurement_rows(
     ``candidates`` (sorted row indices; default: every row) are the rows that
     were measured, e.g. in a session whose compressive plan applied points
     it did not measure.  With the thermal term on a square design with a
-    thermal point (:func:`identify.design.thermal_point_row`: the damped
+    thermal point (:func:`identify.regressor_design.thermal_point_row`: the damped
     oscillation plus the thermal point, in any order, the thermal point
     anywhere off the walls) the thermal point is always among the chosen
     rows (when it is a candidate): without it ``c_d`` is not identifiable.
