@@ -272,7 +272,7 @@ def test_rig_track_end_to_end_against_rig_serve_sim(tmp_path):
         cfg = server.client_config(tmp_path / "rig.toml", timeout=1.0, retries=2)
         y = sines(24)
         out = tmp_path / "t.h5"
-        from .cli import rig
+        from rig.testing import rig
 
         r = rig("track", model_path, "--target", targets_file(tmp_path, y, step=0.05), "--out", out, "--config",
                 cfg, "--feedback", "pi", "--saturate", "0.2", "--json", "--no-progress", timeout=120)
