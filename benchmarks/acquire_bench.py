@@ -39,10 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from drivers import open_rig  # noqa: E402
-from rig.acquisition import (  # noqa: E402
+from drivers import open_rig
+from rig.acquisition import (
     AcquisitionPlan,
     DwellSettings,
     FixedDwell,
@@ -52,8 +50,8 @@ from rig.acquisition import (  # noqa: E402
     make_record,
     sequence_record,
 )
-from rig.acquisition.progress import ProgressBar  # noqa: E402
-from sessions import SessionWriter  # noqa: E402
+from rig.acquisition.progress import ProgressBar
+from sessions import SessionWriter
 
 SETTINGS = DwellSettings(FixedDwell(20.0), readings=4)
 

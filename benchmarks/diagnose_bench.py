@@ -52,8 +52,6 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
 from drivers.sim import SimParams  # noqa: E402
 from identify.diagnosis import CANDIDATES, diagnose  # noqa: E402
 from identify.diagnosis.base import fit_base  # noqa: E402

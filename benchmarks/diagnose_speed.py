@@ -35,8 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from cold_start import rig_executable, run_once  # noqa: E402
+from cold_start import rig_executable, run_once  # beside this file: run it as python benchmarks/diagnose_speed.py
 
 FORC = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "forc" / "MD00-2361.forc"
 

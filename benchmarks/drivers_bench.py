@@ -16,15 +16,11 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from drivers import open_rig  # noqa: E402
-from identify import damped_oscillation  # noqa: E402
-from tests.benchsim import EXACT, config, modbus_toml, serial_toml, served  # noqa: E402
+from drivers import open_rig
+from identify import damped_oscillation
+from rig.testing import EXACT, config, modbus_toml, serial_toml, served
 
 K = 4
 

@@ -19,7 +19,7 @@ the median of ``--repeats`` runs, per method.
 Times are wall-clock seconds in this process; ``fit_s`` is the method's
 own ``seconds_`` (the solver), ``build_fit_s`` the problem's construction
 plus the fit.  Every problem on one grid is built on that grid's
-:class:`~identify.design.Design`: the first fit on a grid builds the
+:class:`~identify.regressor_design.Design`: the first fit on a grid builds the
 regressor operator (about 0.3 s for every point at L = 40), the other
 methods and the repeats re-fit on it.
 """
@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from identify import Grid, Problem, make_method
-from identify.design import Design
+from identify.regressor_design import Design
 from identify.metrics import max_abs, normalised, rmse
 from identify.validation import validate_model
 from sessions.forc_import import import_forc

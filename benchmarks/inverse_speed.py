@@ -35,15 +35,13 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from drivers.clock import VirtualClock  # noqa: E402
-from drivers.config import default_config  # noqa: E402
-from drivers.sim import SimVO2  # noqa: E402
-from identify.effects import EFFECTS, pipeline_order  # noqa: E402
-from identify.inverse import invert  # noqa: E402
-from identify.model_json import model_to_dict  # noqa: E402
-from sessions.targets import Targets, write_targets  # noqa: E402
+from drivers.clock import VirtualClock
+from drivers.config import default_config
+from drivers.sim import SimVO2
+from identify.effects import EFFECTS, pipeline_order
+from identify.inverse import invert
+from identify.model_json import model_to_dict
+from sessions.targets import Targets, write_targets
 
 
 def families(n: int, seed: int = 0) -> dict[str, np.ndarray]:

@@ -45,6 +45,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+# The blind simulators are imported as benchmarks.rigtime.<name> (and import benchmarks.blind themselves): run as
+# python benchmarks/rig_time.py, the repository root is not on the path, so put it there.
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from drivers.config import default_config  # noqa: E402

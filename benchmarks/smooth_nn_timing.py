@@ -14,7 +14,7 @@ import argparse
 import numpy as np
 
 from identify import Grid, Problem, choose_rows, damped_oscillation, make_method
-from identify.design import Design
+from identify.regressor_design import Design
 from identify.profiles import profile
 from identify.regressor import regressor_matrix
 

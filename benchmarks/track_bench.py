@@ -59,10 +59,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import signal
 import subprocess
-import sys
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -70,11 +68,9 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from rig.testing import HEADER, modbus_toml, rig_command
 
-from effects_bench import LEVELS, STRENGTHS  # noqa: E402  (the strengths of a 3- and a 10-sigma gap)
-from tests.benchsim import HEADER, modbus_toml  # noqa: E402
+from effects_bench import LEVELS, STRENGTHS  # beside this file (the strengths of a 3- and a 10-sigma gap)
 
 #: The time scale: the device runs this many times faster than the default one (see the module doc).
 SPEED = 4.0
@@ -94,13 +90,8 @@ PATTERN = 24
 REPEATS = 3
 
 
-def rig_exe() -> list[str]:
-    exe = shutil.which("rig", path=os.path.dirname(sys.executable)) or shutil.which("rig")
-    return [exe] if exe else [sys.executable, "-m", "rig"]
-
-
 def run(*args, timeout: float = 3600) -> subprocess.CompletedProcess:
-    p = subprocess.run([*rig_exe(), *map(str, args)], capture_output=True, text=True, timeout=timeout)
+    p = subprocess.run([*rig_command(), *map(str, args)], capture_output=True, text=True, timeout=timeout)
     if p.returncode != 0:
         raise RuntimeError(f"rig {' '.join(map(str, args))}: exit {p.returncode}: {p.stderr.strip()[-2000:]}")
     return p
@@ -182,9 +173,9 @@ class Server:
     """``rig serve-sim --config CFG --modbus 127.0.0.1:0 --json`` until stopped."""
 
     def __init__(self, config: Path) -> None:
-        self.proc = subprocess.Popen([*rig_exe(), "serve-sim", "--config", str(config), "--modbus", "127.0.0.1:0",
-                                      "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                     start_new_session=True)
+        self.proc = subprocess.Popen([*rig_command(), "serve-sim", "--config", str(config), "--modbus",
+                                      "127.0.0.1:0", "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                     text=True, start_new_session=True)
         line = self.proc.stdout.readline()
         if not line:
             raise RuntimeError(f"serve-sim did not start: {self.proc.stderr.read()}")

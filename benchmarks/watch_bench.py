@@ -37,22 +37,20 @@ import json
 import multiprocessing
 import os
 import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from drivers import open_rig
+from drivers.config import loads_config
+from rig.acquisition import DwellSettings, FixedDwell, acquire, make_record, sequence_record
+from rig.testing import NoBrowser, Process, close_browser, get, start_browser, wait_state
+from sessions import ExcitationRecord, SessionWriter, read_session
+from sessions.schema import SAMPLE_DTYPE
 
-from benchmarks.acquire_bench import timed_run  # noqa: E402
-from drivers import open_rig  # noqa: E402
-from drivers.config import loads_config  # noqa: E402
-from rig.acquisition import DwellSettings, FixedDwell, acquire, make_record, sequence_record  # noqa: E402
-from sessions import ExcitationRecord, SessionWriter, read_session  # noqa: E402
-from sessions.schema import SAMPLE_DTYPE  # noqa: E402
-from tests.watchkit import NoBrowser, Process, get, start_browser, close_browser, wait_state  # noqa: E402
+from acquire_bench import timed_run  # beside this file
 
 REAL_CLOCK_SIM = """
 driver = "sim"

@@ -14,17 +14,13 @@ demo's pair of runs with creep switched on in the device (:mod:`rig.diagnosis.si
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from rig.testing import Child, client_config, close_browser, rig, serve_sim, start_browser, wait_state, watch
 
-from tests.acquirekit import Child  # noqa: E402
-from tests.cli import rig  # noqa: E402
-from tests.watchkit import client_config, close_browser, serve_sim, start_browser, wait_state, watch  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 WIDTH = 1280
 

@@ -11,7 +11,7 @@ Layers (one module, one job):
 * :mod:`~drivers.retry` -- reconnection with back-off (and the keys every
   link shares);
 * :mod:`~drivers.backends` -- what a backend is: the entry its package
-  declares; :mod:`~drivers.setpoints` -- every rule a set-point passes, the
+  declares; :mod:`~drivers.setpoint_rules` -- every rule a set-point passes, the
   window; :mod:`~drivers.instrument_lock` -- one run per instrument;
 * the backends, one package each, each declaring its ``rig.toml`` table and
   its entry: :mod:`~drivers.sim` (the simulated VO2 device and its

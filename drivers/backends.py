@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover
     from .protocols import Clock, DeflectionSensor, HeaterOutput
-    from .setpoints import SetpointRules
+    from .setpoint_rules import SetpointRules
 
 
 @dataclass

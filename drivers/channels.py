@@ -17,7 +17,7 @@ from interrupts import delay_keyboard_interrupt
 from .errors import ContinuityError, DriverError, LimitError, SensorError
 from .limits import HeaterLimits
 from .protocols import Calibration, Reading, SafeState, VoltageWindow
-from .setpoints import SetpointRules, same_setpoint
+from .setpoint_rules import SetpointRules, same_setpoint
 
 
 def _is_zero(volts: float) -> bool:
@@ -33,7 +33,7 @@ class GuardedHeater(abc.ABC):
     :meth:`_on_wire` when the instrument rounds (a scaled integer register,
     a printed decimal): the value it returns is checked against the limits
     too, so rounding can never push a set-point over one (see
-    :class:`drivers.setpoints.SetpointRules`, which also holds the
+    :class:`drivers.setpoint_rules.SetpointRules`, which also holds the
     instrument's full scale where it is known).
     """
 

@@ -22,7 +22,7 @@ from .config import RigConfig, default_config
 from .errors import DriverError, InstrumentBusy
 from .protocols import Clock
 from .rig import open_rig
-from .setpoints import same_setpoint
+from .setpoint_rules import same_setpoint
 
 
 def selftest(config: RigConfig | None = None, *, clock: Clock | None = None) -> dict[str, Any]:

@@ -9,7 +9,7 @@ no printing.  Modules:
 * :mod:`identify.everett` -- the Everett function and a memory curve's Everett terms;
 * :mod:`identify.operators` -- ``S`` as a matrix-free operator;
 * :mod:`identify.square` -- sparse solves and the sparse inverse of the square design;
-* :mod:`identify.design` -- the design (grid, inputs, thermal term, initial memory) as a value that
+* :mod:`identify.regressor_design` -- the design (grid, inputs, thermal term, initial memory) as a value that
   owns its operator and square solver;
 * :mod:`identify.model` -- :class:`PreisachModel`;
 * :mod:`identify.forward` -- the fast forward model (whole sequences, or step by step);

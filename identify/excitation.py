@@ -22,7 +22,7 @@ through this one point, which makes ``c_d`` sensitive to noise on it.  Other
 off-wall points (and points beyond the range, where the memory saturates and
 only ``c_d v`` changes) work too, as do other orderings of the oscillation:
 identification accepts any square design whose ``S`` is invertible, checked
-numerically (:mod:`identify.design`).
+numerically (:mod:`identify.regressor_design`).
 """
 
 from __future__ import annotations

@@ -16,7 +16,6 @@ from typing import Any
 
 import numpy as np
 
-from .design import thermal_point_row
 from .effects import Effect
 from .effects.joint import fit_with_effects
 from .errors import IdentifyError
@@ -25,6 +24,7 @@ from .memory import InitialState
 from .methods import Problem, choose_rows, make_method
 from .metrics import max_abs, normalised, rmse
 from .model import PreisachModel
+from .regressor_design import thermal_point_row
 from .runs import Run
 from .threads import blas_threads_for
 
@@ -66,7 +66,7 @@ def measurement_rows(
     ``candidates`` (sorted row indices; default: every row) are the rows that
     were measured, e.g. in a session whose compressive plan applied points
     it did not measure.  With the thermal term on a square design with a
-    thermal point (:func:`identify.design.thermal_point_row`: the damped
+    thermal point (:func:`identify.regressor_design.thermal_point_row`: the damped
     oscillation plus the thermal point, in any order, the thermal point
     anywhere off the walls) the thermal point is always among the chosen
     rows (when it is a candidate): without it ``c_d`` is not identifiable.

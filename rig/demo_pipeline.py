@@ -40,7 +40,7 @@ from .diagnosis.report import write_figures
 from .diagnosis.simulate import SimulatedBench, simulate_check_run, simulate_fit_run
 from .errors import UserError
 from .reidentify import IdentifyOptions, fit_job, plan_job, store_model
-from .scoring import score_model
+from .model_scoring import score_model
 from .session_input import open_run
 
 #: The methods the demo identifies with, in the order it prints them.

@@ -30,7 +30,7 @@ from sessions.recording import Recording
 from .output import nrmse_text
 from .plots import density_figure, loop_figure, residual_figure, save_figure, time_figure
 from .plots.style import DEFLECTION, HEATER_VOLTAGE, Quantity, display_unit, ratio_unit
-from .scoring import score_model
+from .model_scoring import score_model
 
 #: Name of the Markdown summary in the report directory.
 SUMMARY = "report.md"
@@ -104,7 +104,7 @@ def run_figures(run: ScoredRun, record: ModelRecord, prefix: str, what: str) -> 
 def score_runs(record: ModelRecord, data: Recording, validation: Recording | None = None
                ) -> tuple[ScoredRun, ScoredRun | None]:
     """The model's run ``data`` (scored as the run it was fitted on) and, if given, a validation run
-    (scored on the model's grid); one-line errors from :func:`rig.scoring.score_model`."""
+    (scored on the model's grid); one-line errors from :func:`rig.model_scoring.score_model`."""
     fitted = ScoredRun(data, score_model(record, data, fitted_on=True))
     checked = None if validation is None else ScoredRun(validation, score_model(record, validation))
     return fitted, checked

@@ -1,21 +1,16 @@
-"""Helpers for the ``rig acquire`` process tests: a served simulated bench, a child ``rig acquire``
-whose stderr is watched, a pseudo-terminal for its stdin, and a spy on the device's set-points."""
+"""Helpers for the ``rig acquire`` process tests beside :mod:`rig.testing` (the served simulated bench, a child
+``rig acquire`` whose stderr is watched): a session's samples as another process writes them, a
+pseudo-terminal for the child's stdin, and a spy on the device's set-points."""
 
 from __future__ import annotations
 
 import os
 import pty
-import re
-import shutil
-import subprocess
-import sys
-import threading
 import time
 from pathlib import Path
 
+from rig.testing import Child, modbus_toml
 from sessions import DataFileError, read_session
-
-from .benchsim import modbus_toml
 
 #: A device on the real clock that is exactly at rest after 0.1 s (50 time constants), without noise.
 FAST_DEVICE = dict(time_constant_s=0.002, psd_noise_V=0.0)
@@ -51,52 +46,6 @@ def bench_config(bench, tmp_path: Path, name: str = "rig.toml") -> Path:
     path = tmp_path / name
     path.write_text(modbus_toml(bench))
     return path
-
-
-class Child:
-    """``rig acquire ...`` in a new process; stderr is collected on a thread so the test can wait for text."""
-
-    def __init__(self, *args, stdin=subprocess.DEVNULL) -> None:
-        exe = shutil.which("rig", path=os.path.dirname(sys.executable)) or shutil.which("rig")
-        self.proc = subprocess.Popen(
-            [exe, "acquire", *map(str, args)], stdin=stdin, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-            env={**os.environ, "RIG_DEBUG": ""},
-        )
-        self._err = bytearray()
-        self._lock = threading.Lock()
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        fd = self.proc.stderr.fileno()
-        while chunk := os.read(fd, 4096):
-            with self._lock:
-                self._err += chunk
-
-    @property
-    def err(self) -> str:
-        with self._lock:
-            return self._err.decode("utf-8", "replace")
-
-    def wait_for(self, text: str, timeout: float = 30.0) -> None:
-        end = time.monotonic() + timeout
-        while text not in self.err:
-            assert self.proc.poll() is None or text in self.err, f"exited {self.proc.returncode}: {self.err}"
-            assert time.monotonic() < end, f"no {text!r} on stderr: {self.err}"
-            time.sleep(0.01)
-
-    def finish(self, timeout: float = 60.0) -> tuple[int, str, str]:
-        out = self.proc.stdout.read()  # not communicate(): the reader thread owns stderr
-        self.proc.wait(timeout=timeout)
-        self._reader.join(5)
-        self.proc.stdout.close()
-        self.proc.stderr.close()
-        return self.proc.returncode, out.decode(), self.err
-
-    def reported(self) -> int:
-        """The last point count the progress bar showed (``k/N``)."""
-        counts = re.findall(r"(\d+)/\d+ \[", self.err)
-        return int(counts[-1]) if counts else 0
 
 
 def wait_for_samples(path: Path, n: int, timeout: float = 30.0, child: Child | None = None) -> int:

@@ -1,38 +1,13 @@
-"""Run the installed ``rig`` command as a user would."""
+"""Run the ``rig`` command as a user would: in this process (:func:`rig_here`), ``rig serve-sim`` in its own,
+and the checks of a one-line error.  A command in a new process is :func:`rig.testing.rig`."""
 
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import signal
 import subprocess
-import sys
-from dataclasses import dataclass
 
-
-@dataclass
-class Run:
-    code: int
-    out: str
-    err: str
-
-    def json(self):
-        return json.loads(self.out)
-
-
-def rig_command() -> list[str]:
-    """The installed ``rig`` console script of this environment (else ``python -m rig``)."""
-    exe = shutil.which("rig", path=os.path.dirname(sys.executable)) or shutil.which("rig")
-    return [exe] if exe else [sys.executable, "-m", "rig"]
-
-
-def rig(*args, timeout: float = 120, input: str | None = None) -> Run:
-    p = subprocess.run(
-        [*rig_command(), *map(str, args)], capture_output=True, text=True, timeout=timeout, input=input,
-        env={**os.environ, "RIG_DEBUG": ""},
-    )
-    return Run(p.returncode, p.stdout, p.stderr)
+from rig.testing import Run, rig_command
 
 
 def error_lines(err: str) -> list[str]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 import shlex
 
-from .cli import rig_command
+from rig.testing import rig_command
 
 BLOCK = re.compile(r"^```sh\n(.*?)^```", re.M | re.S)
 

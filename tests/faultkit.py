@@ -17,8 +17,7 @@ from pathlib import Path
 
 from drivers.sim.journal import read_journal
 from rig.acquisition import Hooks
-
-from .benchsim import FAST_LINK, HEADER
+from rig.testing import FAST_LINK, HEADER
 
 #: The device of the fault tests: on the real clock, exactly at rest after 0.1 s, without noise.
 FAST_SIM = "[sim]\ntime_constant_s = 0.002\npsd_noise_V = 0.0\nlevels = 8\n"

@@ -10,10 +10,10 @@ import time
 import numpy as np
 import pytest
 
+from rig.testing import Child, served
 from sessions import SampleFlag, Status, read_session
 
-from .acquirekit import FAST_DEVICE, Child, SetpointSpy, Terminal, bench_config, wait_for_samples
-from .benchsim import served
+from .acquirekit import FAST_DEVICE, SetpointSpy, Terminal, bench_config, wait_for_samples
 from .cli import assert_one_line_error, rig_here
 from .conftest import digest
 

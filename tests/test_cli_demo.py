@@ -6,9 +6,10 @@ import pytest
 
 import hashlib
 
+from rig.testing import rig
 from sessions import read_session
 
-from .cli import assert_one_line_error, rig, rig_here
+from .cli import assert_one_line_error, rig_here
 
 METHODS = ["ls", "cs", "cs_order", "cs_order_nn", "smooth_nn"]
 

@@ -7,7 +7,8 @@ import sys
 
 import pytest
 
-from .benchsim import HEADER, REGISTER_MAP
+from rig.testing import HEADER, REGISTER_MAP
+
 from .cli import assert_one_line_error, rig_here, serve_sim, stop
 
 pytestmark = pytest.mark.timeout(120)

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from identify import damped_oscillation, random_input
+from rig.testing import rig
 
-from .cli import assert_one_line_error, rig, rig_here
+from .cli import assert_one_line_error, rig_here
 from .conftest import digest, known_model, write_csv
 
 

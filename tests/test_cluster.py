@@ -17,8 +17,9 @@ from pathlib import Path
 import pytest
 
 from rig import parallel
+from rig.testing import rig
 
-from .cli import assert_one_line_error, rig, rig_here
+from .cli import assert_one_line_error, rig_here
 from .test_reident import damped_run
 
 distributed = pytest.importorskip(

@@ -21,11 +21,11 @@ import time
 import numpy as np
 import pytest
 
+from rig.testing import HEADER, rig_command, served
 from sessions import Status, read_session
 
 from .acquirekit import FAST_DEVICE, bench_config
-from .benchsim import HEADER, served
-from .cli import assert_one_line_error, error_lines, rig_command, rig_here
+from .cli import assert_one_line_error, error_lines, rig_here
 from .conftest import digest
 
 SIM = HEADER.format(driver="sim") + "[sim.effects.creep]\nstrength = 0.2\n"

@@ -14,7 +14,6 @@ import time
 import numpy as np
 import pytest
 
-from .benchsim import EXACT, config, modbus_toml, served
 from drivers import ConnectionFailed, DriverTimeout, LimitError, open_rig
 from drivers.modbus.config import ModbusConfig
 from drivers.modbus.backend import ModbusLink
@@ -27,6 +26,7 @@ from drivers.modbus.errors import (
 )
 from drivers.modbus.registers import InputPoint, RegisterPoint
 from identify import damped_oscillation, random_input
+from rig.testing import EXACT, config, modbus_toml, served
 
 pytestmark = pytest.mark.timeout(60)
 

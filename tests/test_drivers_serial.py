@@ -14,8 +14,7 @@ from drivers.serial.config import SerialConfig
 from drivers.serial.backend import SerialLink
 from drivers.sim.serial_server import IDENTITY
 from identify import random_input
-
-from .benchsim import EXACT, config, serial_toml, served
+from rig.testing import EXACT, config, serial_toml, served
 
 pytestmark = pytest.mark.timeout(60)
 

@@ -18,10 +18,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rig.testing import Child
 from sessions import SampleFlag, Status, read_session
 
+from .acquirekit import wait_for_samples
 from .cli import error_lines
-from .acquirekit import Child, wait_for_samples
 from .conftest import digest
 from .faultkit import FAULT_MAP, SimServer, rig_exe
 

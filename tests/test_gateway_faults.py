@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rig.testing import Child
 from sessions import SampleFlag, Status, read_session
 
-from .acquirekit import Child
 from .faultkit import FAST_SIM, SimServer
 from .modbusproxy import Fault, ModbusProxy
 from .test_faults import one_line, shared_server  # noqa: F401  (shared_server is a fixture)

@@ -24,8 +24,8 @@ import pytest
 from drivers import open_rig
 from drivers.modbus.config import ModbusConfig
 from drivers.modbus.registers import InputPoint, RegisterPoint
+from rig.testing import EXACT, FAST_LINK, HEADER, config, served
 
-from .benchsim import EXACT, FAST_LINK, HEADER, config, served
 from .faultkit import FAST_SIM, SimServer
 
 pytestmark = pytest.mark.timeout(120)

@@ -10,9 +10,9 @@ import pytest
 
 from drivers.modbus.config import ModbusConfig
 from drivers.modbus.registers import InputPoint, RegisterPoint
+from rig.testing import EXACT, modbus_toml, served
 from sessions import Status, read_session
 
-from .benchsim import EXACT, modbus_toml, served
 from .cli import assert_one_line_error, error_lines, rig_here
 
 pytestmark = pytest.mark.timeout(120)

@@ -7,7 +7,7 @@ import pytest
 
 from identify import Excitation
 from rig.plots.style import DPI
-from rig.scoring import score_model
+from rig.model_scoring import score_model
 from rig.session_input import choose_model, open_run
 from rig.session_report import ScoredRun, build_report
 from sessions import Quantities

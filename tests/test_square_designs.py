@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from identify import Grid, MethodNotApplicable, Problem, damped_oscillation, make_method, regressor_matrix
-from identify.design import SINGULAR_RCOND, Design
+from identify.regressor_design import SINGULAR_RCOND, Design
 from identify.excitation import damped_oscillation_walls
 from identify.fit import fit_sequence, measurement_rows
 from identify.methods import METHODS

@@ -273,7 +273,7 @@ def test_rig_track_end_to_end_against_rig_serve_sim(tmp_path):
         cfg = server.client_config(tmp_path / "rig.toml", timeout=1.0, retries=2)
         y = sines(24)
         out = tmp_path / "t.h5"
-        from .cli import rig
+        from rig.testing import rig
 
         r = rig("track", model_path, "--target", targets_file(tmp_path, y, step=0.05), "--out", out, "--config",
                 cfg, "--feedback", "pi", "--saturate", "0.2", "--json", "--no-progress", timeout=120)
@@ -323,7 +323,7 @@ def test_a_dwell_a_few_ms_longer_than_planned_does_not_make_a_target_unreachable
     target out of reach: the flag is the inversion's verdict, and the feedback keeps learning."""
     from identify.effects import EFFECTS
     from identify.inverse import NoFeedback
-    from rig.tracking.setpoints import TrackingSetpoints
+    from rig.tracking.inverted_setpoints import TrackingSetpoints
 
     grid = Grid(8, 0.0, 6.0)
     density = np.random.default_rng(3).uniform(0.1, 1.0, grid.n_cells)

@@ -15,6 +15,7 @@ import pytest
 from identify import Excitation, Grid
 from identify.excitation import damped_oscillation
 from identify.fit import fit_sequence
+from rig.testing import get, wait_state, watch
 from sessions import ExcitationRecord, SessionWriter, Status
 from sessions.log import append_event
 from sessions.records import Event, Quantities
@@ -31,7 +32,6 @@ from rig.watch.watcher import SessionWatch, WatchOptions, Workers
 from .cli import assert_one_line_error, rig_here
 from .conftest import digest, known_model
 from .sessionkit import append_point, assert_rows_as_written, excitation, write_run
-from .watchkit import get, wait_state, watch
 
 FIXED = {"policy": "fixed", "seconds": 10.0, "transit_s": 1.0, "readings": 4}
 

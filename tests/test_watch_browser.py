@@ -13,14 +13,13 @@ import time
 
 import pytest
 
+from rig.testing import Child, client_config, close_browser, serve_sim, watch
 from sessions import read_session
 
-from .acquirekit import Child
 from .cli import rig_here
 from .conftest import digest
 from .forcfiles import Relays, forc_data, lines_0016, write_lines
-from .watchkit import (browser_or_skip, client_config, close_browser, serve_sim, session_fds, svg_texts, wait_page,
-                       watch)
+from .watchkit import browser_or_skip, session_fds, svg_texts, wait_page
 
 pytestmark = [pytest.mark.timeout(180), pytest.mark.slow]
 

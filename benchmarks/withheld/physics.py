@@ -10,7 +10,7 @@ the *strength* is one positive number, calibrated later
 Anything that should differ from run to run (a drift's realisation) is
 drawn from a per-run generator when the effect is built for that run.
 
-Effects plug into the hooks of :mod:`drivers.sim.effects` (voltage ->
+Effects plug into the hooks of :mod:`drivers.sim.effect_hooks` (voltage ->
 rise -> Preisach input -> deflection -> PSD).  Two mechanisms need more
 than the hooks give, and get it from :class:`WithheldVO2`, a small
 subclass of :class:`drivers.sim.SimVO2`:
@@ -37,7 +37,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from drivers.sim import Effect, SimParams, SimVO2
-from drivers.sim.effects import Moment
+from drivers.sim.effect_hooks import Moment
 from identify import PreisachModel
 from identify.memory import CellStates
 

@@ -32,7 +32,7 @@ from ..instrument_lock import host_port, serial_port_name
 from ..limits import HeaterLimits
 from ..protocols import Calibration, Clock
 from ..retry import Backoff, BadReply, LinkDropped, NoReply, with_retries
-from ..setpoints import SetpointRules
+from ..setpoint_rules import SetpointRules
 from .config import ModbusConfig
 from .errors import TRANSIENT_CODES, exception_response, quiet_pymodbus
 from .registers import RegisterPoint

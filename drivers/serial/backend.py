@@ -33,7 +33,7 @@ from ..instrument_lock import serial_port_name
 from ..limits import HeaterLimits
 from ..protocols import Calibration, Clock
 from ..retry import Backoff, BadReply, LinkDropped, NoReply, with_retries
-from ..setpoints import SetpointRules
+from ..setpoint_rules import SetpointRules
 from .config import SerialCommands, SerialConfig
 
 

@@ -5,7 +5,7 @@ Its entry, ``BACKEND``, is the ``sim`` driver of ``rig.toml``.
 * :mod:`~drivers.sim.params` -- physical parameters (the ``[sim]`` table);
 * :mod:`~drivers.sim.transition` -- the phase-transition Preisach density;
 * :mod:`~drivers.sim.device` -- :class:`SimVO2`, the physics and its state;
-* :mod:`~drivers.sim.effects` -- the hook for extra physical effects;
+* :mod:`~drivers.sim.effect_hooks` -- the hook for extra physical effects;
 * :mod:`~drivers.sim.builtin_effects` -- the unmodelled effects (thermal lag,
   drifts, Joule power, creep, sensor nonlinearity) and their registry;
 * :mod:`~drivers.sim.faults` -- faults to inject in tests;
@@ -18,7 +18,7 @@ Its entry, ``BACKEND``, is the ``sim`` driver of ``rig.toml``.
 from ..backends import Backend
 from .device import DeviceRefused, SimState, SimVO2
 from .builtin_effects import EFFECTS, SIM_EFFECT_CLASSES
-from .effects import Effect, Moment
+from .effect_hooks import Effect, Moment
 from .faults import FaultPlan
 from .params import SimParams
 

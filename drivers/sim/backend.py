@@ -13,7 +13,7 @@ from ..backends import OpenedBackend
 from ..channels import GuardedHeater, PSDSensor
 from ..limits import HeaterLimits
 from ..protocols import Calibration, Clock
-from ..setpoints import SetpointRules
+from ..setpoint_rules import SetpointRules
 from .device import SimVO2
 
 

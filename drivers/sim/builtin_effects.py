@@ -59,7 +59,7 @@ import numpy as np
 
 from identify.registry import ByName
 
-from .effects import Effect, Moment
+from .effect_hooks import Effect, Moment
 
 #: Sinusoids in a drift realisation.
 DRIFT_COMPONENTS = 4

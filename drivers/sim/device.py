@@ -1,6 +1,6 @@
 """The simulated VO2 microactuator: heater voltage in, PSD voltage out, in simulated physics.
 
-Pipeline (see :mod:`drivers.sim.effects` for the hooks at every stage):
+Pipeline (see :mod:`drivers.sim.effect_hooks` for the hooks at every stage):
 
 1. Joule heating: ``P = R_h (v / (R_h + R_s))^2``; steady temperature rise
    ``R_th P`` (K).
@@ -44,7 +44,7 @@ from ..configschema import as_dict
 from ..errors import SetpointRefused
 from ..protocols import Clock
 from .builtin_effects import make_effects
-from .effects import Effect, Moment
+from .effect_hooks import Effect, Moment
 from .faults import FaultPlan
 from .params import SimParams
 from .transition import transition_density

@@ -4,7 +4,7 @@ the gap shrinks once that effect is added.
 Pure numerics, one module per job:
 
 * :mod:`identify.runs` -- a recorded run and what its input history implies (shared with the effects);
-* :mod:`~identify.diagnosis.design` -- the check-run input design;
+* :mod:`~identify.diagnosis.check_run_design` -- the check-run input design;
 * :mod:`~identify.diagnosis.base` -- the base model on the identification runs, linearised;
 * :mod:`~identify.diagnosis.candidates` -- the candidate augmentations (one per effect);
 * :mod:`~identify.diagnosis.resolution` -- the same model on a finer grid, as a candidate;
@@ -15,7 +15,7 @@ Pure numerics, one module per job:
 """
 
 from .candidates import CANDIDATES, NAMES, Candidate, library
-from .design import CheckDesign, check_design
+from .check_run_design import CheckDesign, check_design
 from .engine import CandidateScore, Diagnosis, DiagnosisSettings, diagnose
 from ..runs import Run
 from .verdict import STATUSES, Verdict

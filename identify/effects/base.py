@@ -2,7 +2,7 @@
 
 Equation (22) is the hysteresis; an *effect* is a physical mechanism beside
 it.  Each effect acts at one stage of the model's pipeline -- the simulated
-device's (:mod:`drivers.sim.effects`), seen from what a run records::
+device's (:mod:`drivers.sim.effect_hooks`), seen from what a run records::
 
     heater voltage v --[input]--> hysterons' input x --memory curve--> signed areas s
       u = mu0 + c_d v + sum mu_ij s_ij(x) --[output]--> u + sum of contributions

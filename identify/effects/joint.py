@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from ..design import Design
+from ..regressor_design import Design
 from ..errors import IdentifyError, MethodNotApplicable
 from ..grid import Grid
 from ..methods import Problem, make_method

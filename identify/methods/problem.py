@@ -5,7 +5,7 @@ memory state depends on everything applied before it); only the rows in
 ``rows`` were measured (``A`` in equation (12) selects them).
 
 What ``S`` depends on -- grid, inputs, thermal term, initial memory -- is
-the problem's :class:`~identify.design.Design`, which builds and owns the
+the problem's :class:`~identify.regressor_design.Design`, which builds and owns the
 matrix-free ``operator`` (:mod:`identify.operators`) and, on a square
 design, the ``square_solver`` / ``sparse_inverse`` (:mod:`identify.square`)
 that the fast solvers use; problems built on one design
@@ -26,7 +26,7 @@ import scipy.linalg
 import scipy.sparse
 from scipy.sparse.linalg import LinearOperator
 
-from ..design import SINGULAR_RCOND, Design
+from ..regressor_design import SINGULAR_RCOND, Design
 from ..errors import IdentifyError, MethodNotApplicable
 from ..grid import Grid
 from ..memory import InitialState
@@ -46,7 +46,7 @@ class Problem:
 
     Attributes
     ----------
-    design: the :class:`~identify.design.Design` -- grid, the whole applied
+    design: the :class:`~identify.regressor_design.Design` -- grid, the whole applied
         input sequence, thermal term, initial memory -- that ``S`` depends
         on; ``grid``, ``inputs`` ``(n,)`` (V), ``thermal_term``, ``initial``
         and ``history`` read it.
@@ -291,7 +291,7 @@ class Problem:
         ``S`` invertible -- checked numerically by the path that will solve
         with ``S``: the design's sparse factorisation (``solver="fast"``) or
         this problem's dense LU (``"dense"``, :attr:`square_lu`); see
-        :mod:`identify.design`.
+        :mod:`identify.regressor_design`.
         """
         if solver == "dense":
             self.square_lu
@@ -321,7 +321,7 @@ class Problem:
 
         Raises :class:`MethodNotApplicable` unless the design is square and
         ``S`` is numerically invertible (reciprocal condition number by
-        LAPACK's ``dgecon`` at least :data:`identify.design.SINGULAR_RCOND`).
+        LAPACK's ``dgecon`` at least :data:`identify.regressor_design.SINGULAR_RCOND`).
         """
         self._require_square_kind()
         self.design.require_square_shape()

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..design import Design
+from ..regressor_design import Design
 from ..errors import IdentifyError
 from ..excitation import damped_oscillation, random_input
 from ..grid import Grid
@@ -62,7 +62,7 @@ class TrialResult:
 @dataclass(frozen=True, eq=False)
 class StudyDesign:
     """The study's identification design at one L: the damped oscillation on ``[0, 1]`` without the
-    thermal term, as the :class:`~identify.design.Design` whose operator and square solver every fit
+    thermal term, as the :class:`~identify.regressor_design.Design` whose operator and square solver every fit
     on it shares, and its dense ``S`` ``(N, N)`` (read-only), which the metrics use.
 
     Build it once and pass it to every :func:`run_trial` (a worker process of ``rig study`` builds

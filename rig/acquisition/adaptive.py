@@ -1,7 +1,7 @@
 """``rig acquire --target-nrmse X``: acquire until the model's predicted held-out error reaches X.
 
 The rig's side of :class:`identify.sequential.SequentialDesign` (pure): a
-:class:`~rig.acquisition.setpoints.SetpointSource` that asks the design for
+:class:`~rig.acquisition.setpoint_source.SetpointSource` that asks the design for
 each next set-point, tells it what was read, records the predicted check
 nRMSE with every point, reports it as it falls, and ends the run -- complete,
 with fewer points than its most -- when the prediction reaches the target,

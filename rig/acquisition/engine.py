@@ -31,7 +31,7 @@ of the plan:
    unmeasured ones with output NaN.
 
 A tracking run (``rig track``) gives the sequencer a
-:class:`~rig.acquisition.setpoints.SetpointSource`: step 2 then applies the
+:class:`~rig.acquisition.setpoint_source.SetpointSource`: step 2 then applies the
 set-point it computes from the memory state and the measurements so far
 (instead of the plan's input), and step 6 records the extra columns it
 returns with the row.
@@ -52,13 +52,13 @@ import numpy as np
 
 from drivers.errors import SetpointNotApplied
 from drivers.protocols import Clock, DeflectionSensor, HeaterOutput
-from drivers.setpoints import same_setpoint
+from drivers.setpoint_rules import same_setpoint
 from sessions import SampleFlag
 
 from .dwell import DwellOutcome, DwellPolicy, DwellSettings, average_reading
 from .interrupt import Aborted, Decision, PauseInfo, PauseSwitch
 from .plan import AcquisitionPlan
-from .setpoints import SetpointSource
+from .setpoint_source import SetpointSource
 from .suspenders import CheckedSensor
 
 #: The set-point of negative saturation: heater off, the beam at ambient, below the whole transition.

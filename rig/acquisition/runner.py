@@ -48,7 +48,7 @@ from .engine import PointResult, Sequencer
 from .errors import AcquisitionError
 from .interrupt import Decision, PauseInfo, PauseSwitch
 from .plan import AcquisitionPlan
-from .setpoints import SetpointSource
+from .setpoint_source import SetpointSource
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ from sessions.convert import excitation_of_trace, sha256_of
 from sessions.csvtrace import Trace, read_csv_rows
 
 if TYPE_CHECKING:
-    from identify.diagnosis.design import CheckDesign
+    from identify.diagnosis.check_run_design import CheckDesign
 
 #: The paper's discretisation (section 5.2).
 DEFAULT_LEVELS = 30
@@ -164,7 +164,7 @@ def default_grid(window: VoltageWindow, levels: int | None, v_min: float | None,
 
 def _check_design(window: VoltageWindow, levels, v_min, v_max, points, seed) -> tuple[Grid, CheckDesign]:
     # the diagnosis package (scipy.stats) is imported only when a check run is asked for
-    from identify.diagnosis.design import check_design
+    from identify.diagnosis.check_run_design import check_design
 
     grid = default_grid(window, levels, v_min, v_max)
     n = DEFAULT_CHECK_POINTS if points is None else points
@@ -216,6 +216,6 @@ def sequence_record(
 
 
 def _dwell_choices() -> tuple[float, ...]:
-    from identify.diagnosis.design import DWELLS_S
+    from identify.diagnosis.check_run_design import DWELLS_S
 
     return DWELLS_S

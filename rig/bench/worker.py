@@ -6,7 +6,7 @@ default settings) or ``"dense"`` (``solver="dense"``, the reference).  Prints on
 (end to end: building the problem from the raw data plus the fit; wall
 time, and the process's CPU time, which a busy machine disturbs less),
 the peak memory and the fitted parameters.  Every run builds its problem on
-one :class:`~identify.design.Design`, as a user re-fitting on the same
+one :class:`~identify.regressor_design.Design`, as a user re-fitting on the same
 design does: ``first_s`` is the first run's time, a cold start (the
 design's operator and square solver, and every per-grid cache, still to be
 built), where the later runs re-fit on the same design.
@@ -34,7 +34,7 @@ import tracemalloc
 import numpy as np
 
 from identify import Problem, make_method
-from identify.design import Design
+from identify.regressor_design import Design
 
 from .cases import Case
 

@@ -9,7 +9,7 @@ import click
 from ..curve_selection import CURVE_CHOICES, selected_rows
 from ..options import AliasedOption
 from ..output import format_table, print_json, unit_token
-from ..scoring import score_model
+from ..model_scoring import score_model
 from ..session_input import choose_model, open_run, session_of
 
 

@@ -6,7 +6,7 @@ of the targets from negative saturation (what ``rig invert`` writes), and
 whose record keeps the targets (``/excitation/target``), the model
 (``/models/NAME``, stored as the run starts) and the feedback law
 (``extra.track``).  The sequencer then takes each set-point from
-:class:`~rig.tracking.setpoints.TrackingSetpoints` instead of the plan; with
+:class:`~rig.tracking.inverted_setpoints.TrackingSetpoints` instead of the plan; with
 ``--feedback none`` the two agree point for point.
 """
 
@@ -23,7 +23,7 @@ from sessions import ExcitationRecord, Session
 from sessions.targets import Targets
 
 from ..acquisition import DwellSettings, FixedDwell, Transit
-from .setpoints import TrackingSetpoints
+from .inverted_setpoints import TrackingSetpoints
 from .source import ModelSource
 
 #: The excitation kind of a tracking run.

@@ -8,9 +8,9 @@ import weakref
 import numpy as np
 import pytest
 
-import identify.design
+import identify.regressor_design
 from identify import Grid, IdentifyError, Problem, damped_oscillation, make_method
-from identify.design import Design
+from identify.regressor_design import Design
 from identify.operators import RegressorOperator
 from identify.study import StudySetup, run_trials
 
@@ -61,7 +61,7 @@ def test_problems_on_one_design_share_its_operator_and_square_solver():
 
 def test_refits_on_one_design_build_the_operator_and_square_solver_once(monkeypatch):
     built = {"operator": 0, "solver": 0}
-    operator_init, solver_init = identify.design.RegressorOperator.__init__, identify.design.SquareSolver.__init__
+    operator_init, solver_init = identify.regressor_design.RegressorOperator.__init__, identify.regressor_design.SquareSolver.__init__
 
     def count(kind, init):
         def counted(self, *args, **kwargs):
@@ -69,8 +69,8 @@ def test_refits_on_one_design_build_the_operator_and_square_solver_once(monkeypa
             init(self, *args, **kwargs)
         return counted
 
-    monkeypatch.setattr(identify.design.RegressorOperator, "__init__", count("operator", operator_init))
-    monkeypatch.setattr(identify.design.SquareSolver, "__init__", count("solver", solver_init))
+    monkeypatch.setattr(identify.regressor_design.RegressorOperator, "__init__", count("operator", operator_init))
+    monkeypatch.setattr(identify.regressor_design.SquareSolver, "__init__", count("solver", solver_init))
     truth = known_model(6)
     design = Design(truth.grid, damped_oscillation(truth.grid, True), True)
     assert built == {"operator": 0, "solver": 0}  # nothing is built until a fit asks
@@ -113,13 +113,13 @@ def test_a_used_design_pickles_without_what_it_built():
 
 def test_the_study_fits_every_trial_on_one_design(monkeypatch):
     built = []
-    init = identify.design.RegressorOperator.__init__
+    init = identify.regressor_design.RegressorOperator.__init__
 
     def counted(self, *args, **kwargs):
         built.append(args[0].levels)
         init(self, *args, **kwargs)
 
-    monkeypatch.setattr(identify.design.RegressorOperator, "__init__", counted)
+    monkeypatch.setattr(identify.regressor_design.RegressorOperator, "__init__", counted)
     setup = StudySetup(profile="random", levels=5, measurements=10, runs=3, noise=1.0,
                        methods=("cs", "ls"), validation_points=20)
     results = run_trials(setup, setup.trials())
@@ -140,7 +140,7 @@ def test_a_joint_effect_fit_keeps_one_design_across_its_solves(monkeypatch):
             built.append(1)
             super().__init__(*args, **kwargs)
 
-    monkeypatch.setattr(identify.design, "RegressorOperator", Counted)
+    monkeypatch.setattr(identify.regressor_design, "RegressorOperator", Counted)
     grid = Grid(5, 0.0, 4.0)
     rng = np.random.default_rng(3)
     walk = np.cumsum(rng.normal(0.0, 0.7, 200)) % 8.0

@@ -1,6 +1,6 @@
 """The set-points of a tracking run: the feedback's command, inverted by the model from its memory state.
 
-:class:`TrackingSetpoints` is the :class:`rig.acquisition.setpoints.SetpointSource`
+:class:`TrackingSetpoints` is the :class:`rig.acquisition.setpoint_source.SetpointSource`
 of ``rig track``.  Just before point ``k`` is applied it asks the feedback
 law for the output to reach (the target, corrected by what was measured so
 far) and the model's inverse for the voltage that reaches it from the
