@@ -215,12 +215,70 @@ def _rms(x: np.ndarray) -> float:
 
 @dataclass(frozen=True, eq=False)
 class _Scored:
-    """The check data in the stacked order: the runs used, their scored rows, regressor rows, carry-over."""
+    """The check data in the stacked order of the ``m`` scored points: the runs used, their scored rows,
+    the base model's regressor rows there ``(m, n)``, its carry-over ``(m, m_fit)`` (identification
+    outputs to check predictions), the held-out blocks; the ``measured`` and ``predicted`` outputs and
+    the ``gap`` ``measured - predicted`` (what the model misses; the residual reported is ``-gap``), ``(m,)``
+    each in um; and the ``features`` the residual is binned by, ``(m,)`` each."""
 
     runs: tuple[Run, ...]
     rows: tuple[np.ndarray, ...]
     carry: np.ndarray
     blocks: Blocks
+    regressor: np.ndarray
+    measured: np.ndarray
+    predicted: np.ndarray
+    gap: np.ndarray
+    features: dict[str, np.ndarray]
+
+
+@dataclass(frozen=True, eq=False)
+class _Reference:
+    """What the candidates are judged against: ``residual`` ``(m,)`` (um), the gap less the base fit's
+    poorly determined directions ``recal`` ``(m, r)`` re-estimated on held-out check blocks;
+    ``amplification`` ``(s,)`` the base fit's noise amplifications, largest first; ``carry_rest``
+    ``(m, m_fit)`` the carry-over outside ``recal``."""
+
+    residual: np.ndarray
+    recal: np.ndarray
+    amplification: np.ndarray
+    carry_rest: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class _Floor:
+    """The noise floor at the scored check points: ``noise`` the estimate (the bound from the fit's
+    residual when none is measured); ``kind`` ``measured``, ``bound`` or None; ``per_point`` ``(m,)`` (um,
+    None when unknown) and its rms ``rms_um``; ``estimate`` ``(m,)`` the unmeasured estimate beside a
+    bound (else None); ``rse`` the relative standard error of a measured variance (else 0)."""
+
+    noise: NoiseEstimate | None
+    kind: str | None
+    per_point: np.ndarray | None
+    rms_um: float | None
+    estimate: np.ndarray | None
+    rse: float
+
+
+@dataclass(frozen=True, eq=False)
+class _Assessed:
+    """A candidate fitted jointly with the base model: ``after`` ``(m,)`` the gap it leaves on held-out
+    blocks (um); ``params``, ``fitted`` and ``setting`` its fit on all the check data; ``visible`` and
+    ``note`` (:func:`_visible`); for fitting it beside a second candidate, its effective ``parts`` and
+    columns ``cols`` per setting and the settings cross-validation chose, ``full_setting`` on all blocks
+    and ``chosen`` ``(B,)`` for each held-out block."""
+
+    cand: Candidate
+    after: np.ndarray
+    params: dict[str, Any]
+    visible: bool
+    note: str
+    fitted: Any
+    setting: dict[str, float]
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+    cols: list[Columns]
+    full_setting: int
+    chosen: np.ndarray
 
 
 def _effective(base: BaseFit, scored: _Scored, cols: Columns) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -357,6 +415,277 @@ def _visible(cand: Candidate, designs: list[np.ndarray], raws: list[np.ndarray],
     return True, ""
 
 
+# ---------------------------------------------------------------- the stages of the diagnosis
+def _run_units(fit_runs: tuple[Run, ...], check_runs: tuple[Run, ...]) -> tuple[str, str]:
+    """The ``(input, output)`` units all the runs record, e.g. ``("V", "um")``.  Raises
+    :class:`IdentifyError` when there is no check run, two runs share a name, or the units differ."""
+    if not check_runs:
+        raise IdentifyError("no check run: the diagnosis judges on held-out runs, never on the fitted ones")
+    names = [r.name for r in fit_runs + check_runs]
+    if len(set(names)) != len(names):
+        raise IdentifyError(f"run names must be distinct, got {', '.join(names)}")
+    units = {(r.input_unit, r.output_unit) for r in fit_runs + check_runs}
+    if len(units) != 1:
+        raise IdentifyError("the runs record different units: "
+                            + ", ".join(f"{r.name} {r.input_unit} in, {r.output_unit} out" for r in fit_runs + check_runs))
+    return units.pop()
+
+
+def _scored_check_runs(grid: Grid, check_runs: tuple[Run, ...], warnings: list[str]
+                       ) -> tuple[tuple[Run, ...], tuple[np.ndarray, ...]]:
+    """The check runs with measured points inside the identification range, and those points' indices
+    (``(m_i,)`` each); points outside and runs without any are said in ``warnings``.  Raises
+    :class:`IdentifyError` when no check point is inside."""
+    used, rows = [], []
+    for run in check_runs:
+        r = _scored_rows(grid, run, warnings)
+        if r.size == 0:
+            warnings.append(f"{run.name}: no measured point inside the identification range; not used")
+            continue
+        used.append(run)
+        rows.append(r)
+    if not used:
+        raise IdentifyError("no check point lies inside the identification range; nothing to judge the model on")
+    return tuple(used), tuple(rows)
+
+
+def _held_out_gap(base: BaseFit, fit_runs: tuple[Run, ...], used: tuple[Run, ...], rows: tuple[np.ndarray, ...]
+                  ) -> tuple[Context, _Scored]:
+    """The base model on the scored check points: the candidates' :class:`Context` (the identification
+    runs, then the check runs ``used``) and the check data (:class:`_Scored`), ``m`` points stacked run
+    by run, with the gap the model leaves there (um) and the features of each point."""
+    n_fit = len(fit_runs)
+    ctx = Context.of_model(base.model, fit_runs + used, n_fit)
+    preds = ctx.predictions[n_fit:]
+    regs = np.vstack([base.regressor(run)[r] for run, r in zip(used, rows)])
+    measured = np.concatenate([run.outputs[r] for run, r in zip(used, rows)])
+    predicted = np.concatenate([p[r] for p, r in zip(preds, rows)])
+    features: dict[str, list[np.ndarray]] = {}
+    for run, r, p in zip(used, rows, preds):
+        for key, value in _features(run, r, p).items():
+            features.setdefault(key, []).append(value)
+    return ctx, _Scored(used, rows, base.carry_over(regs), make_blocks([r.size for r in rows]), regs, measured,
+                        predicted, measured - predicted, {k: np.concatenate(v) for k, v in features.items()})
+
+
+def _reference(base: BaseFit, scored: _Scored) -> _Reference:
+    """The base model with the directions the identification design leaves poorly determined (noise
+    amplified > AMPLIFICATION into the check predictions) re-estimated on held-out check blocks, so that
+    identification noise carried through them does not pose as an effect."""
+    recal, amplification = uncertain_directions(base.carry_factor(scored.regressor))
+    if recal.shape[1]:
+        residual = scored.gap - cross_validate(scored.gap, scored.blocks, [Design(recal)]).prediction
+    else:
+        residual = scored.gap
+    return _Reference(residual, recal, amplification, scored.carry - recal @ (recal.T @ scored.carry))
+
+
+def _noise_floor(base: BaseFit, scored: _Scored, reference: _Reference, monitors: list[np.ndarray] | None,
+                 warnings: list[str]) -> _Floor:
+    """The noise floor of the scored check points (um, ``(m,)``): measured (repeated readings of one
+    memory state, ``monitors``), else only bounded by the base fit's residual, else unknown -- the latter
+    two said in ``warnings``.  Identification noise carried into the check predictions is included."""
+    noise = estimate_noise(base, list(scored.runs), monitors)
+    scored_runs = [(run, r.size) for run, r in zip(scored.runs, scored.rows)]
+    extra = reference.recal.shape[1] / max(scored.gap.size, 1)
+    kind: str | None = "measured" if noise is not None and noise.measured else None
+    floor = estimate = None
+    rse = 0.0
+    if kind == "measured":
+        floor = floor_per_point(noise, base, scored_runs, reference.carry_rest, extra=extra)
+        rse = noise.relative_se_of_variance
+    else:
+        bound = fit_residual_bound(base)
+        if bound is not None:
+            kind = "bound"
+            floor = floor_per_point(bound, base, scored_runs, reference.carry_rest, extra=extra)
+            if noise is not None:
+                estimate = floor_per_point(noise, base, scored_runs, reference.carry_rest, extra=extra)
+            noise = noise or bound
+            warnings.append("no measured noise floor (no repeated runs, repeated set-points or calibration "
+                            "points): the noise is only bounded, from the base fit's residual, so the verdict "
+                            "cannot say 'no gap'")
+    if floor is None:
+        warnings.append("no noise estimate: no repeated runs or set-points, and the base fit leaves no "
+                        "residual degree of freedom; bins are judged by their own scatter")
+    return _Floor(noise, kind, floor, _rms(floor) if floor is not None else None, estimate, rse)
+
+
+def _fit_weight(noise: NoiseEstimate | None, fit_runs: tuple[Run, ...], used: tuple[Run, ...]) -> float:
+    """The weight of an identification point in the joint fit relative to a check point: the ratio of
+    their noise variances, as their numbers of readings say (1 when the runs do not say)."""
+    if noise is not None and noise.readings is not None:
+        k_fit = {r.readings for r in fit_runs}
+        k_check = {r.readings for r in used}
+        if len(k_fit) == 1 and len(k_check) == 1 and None not in k_fit | k_check:
+            return (noise.sigma_for(k_check.pop()) / noise.sigma_for(k_fit.pop())) ** 2
+    return 1.0
+
+
+def _held_out_candidates(cands: list[Candidate], base: BaseFit, ctx: Context, scored: _Scored,
+                         reference: _Reference, floor_rms: float | None, fit_weight: float, unit: str
+                         ) -> tuple[list[_Assessed], list[tuple[str, str]]]:
+    """Every candidate that can be assessed on these runs fitted jointly with the base model and
+    scored on held-out check blocks (:func:`_assess`), in library order; and ``(name, why)`` for each
+    of the others."""
+    assessed, not_assessed = [], []
+    for cand in cands:
+        why_not = cand.applicable(ctx.runs)
+        if why_not is not None:
+            not_assessed.append((cand.name, f"not applicable: {why_not}"))
+            continue
+        grid_settings = cand.settings_grid()
+        cols_list = _columns(cand, ctx, grid_settings)
+        reason = _assessable(cand, cols_list[0], scored, len(base.fit_runs))
+        if reason is not None:
+            not_assessed.append((cand.name, reason))
+            continue
+        assessed.append(_assess(cand, grid_settings, cols_list, base, ctx, scored, reference, floor_rms, fit_weight,
+                                unit))
+    return assessed, not_assessed
+
+
+def _assess(cand: Candidate, grid_settings: list[dict[str, float]], cols_list: list[Columns], base: BaseFit,
+            ctx: Context, scored: _Scored, reference: _Reference, floor_rms: float | None, fit_weight: float,
+            unit: str) -> _Assessed:
+    """``cand`` at each of its settings (``cols_list`` its columns there) cross-validated on the check
+    blocks for the held-out predictions of the gap (an input effect whose correction is large linearised
+    again at its fit, :data:`RELINEARISE`), and fitted on all the check data at the setting chosen."""
+    gap = scored.gap
+    parts = _shared(cols_list, lambda c: _effective(base, scored, c))
+    visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list, floor_rms, unit)
+    designs = [_with_reference(e, a, c, reference.recal) for (e, a, _), c in zip(parts, cols_list)]
+    cv = cross_validate(gap, scored.blocks, designs, base.residual, fit_weight)
+    best = cv.full_setting
+    after = gap - cv.prediction
+    if cand.stage == INPUT and _rms(cv.prediction) >= RELINEARISE * (floor_rms or _rms(gap) / RELINEARISE):
+        after = _relinearised(cand, base, ctx, scored, grid_settings[best], cols_list[best], designs[best], gap,
+                              reference.recal, fit_weight)
+    full = cols_list[best]
+    fitted = cand.with_fit(ctx, grid_settings[best], cv.full_coef[: full.k], full)
+    return _Assessed(cand, after, fitted.report(ctx.runs), visible, note, fitted, grid_settings[best], parts,
+                     cols_list, best, cv.chosen)
+
+
+def _second_effect(assessed: list[_Assessed], base: BaseFit, scored: _Scored, reference: _Reference,
+                   fit_weight: float) -> tuple[str | None, np.ndarray | None]:
+    """A second effect: every other candidate that improves the held-out error on its own (a second must
+    stand on its own too, see the verdict) fitted together with the one that improves most.  Returns that
+    one's name and the held-out gap each pair leaves, ``(c, m)`` (um; NaN for the candidates not paired),
+    or ``(None, None)`` when no candidate was assessed."""
+    if not assessed:
+        return None, None
+    gap = scored.gap
+    best = min(assessed, key=lambda a: float(np.mean(a.after ** 2))).cand.name
+    by_name = {a.cand.name: a for a in assessed}
+    first = by_name[best]
+    pairs_after = np.full((len(assessed), gap.size), np.nan)
+    mse_reference = float(np.mean(reference.residual**2))
+    for i, a in enumerate(assessed):
+        if a.cand.name == best or float(np.mean(a.after**2)) >= mse_reference:
+            continue
+        second = by_name[a.cand.name]
+        designs = [_pair_design(first.parts[first.full_setting], first.cols[first.full_setting], p, c, reference.recal)
+                   for p, c in zip(second.parts, second.cols)]
+        # the second keeps the setting its own cross-validation chose for each held-out block (without
+        # that block): a nested search over both settings cost more than all the single candidates
+        pairs_after[i] = gap - cross_validate(gap, scored.blocks, designs, base.residual, fit_weight,
+                                              chosen=second.chosen).prediction
+    return best, pairs_after
+
+
+def _bootstrap(assessed: list[_Assessed], reference: _Reference, blocks: Blocks, settings: DiagnosisSettings
+               ) -> np.ndarray:
+    """Block-bootstrap mean squared errors ``(n_boot, 1 + c)`` (um^2): the reference, then each candidate's
+    held-out gap, on the same resamples."""
+    ind = onehot(blocks)
+    sse_base = ind @ reference.residual**2
+    sse = np.array([ind @ a.after**2 for a in assessed]).reshape(len(assessed), blocks.count)
+    return bootstrap_mse(np.vstack([sse_base[None, :], sse]), blocks, settings.n_boot, settings.seed)
+
+
+def _evidence(assessed: list[_Assessed], reference: _Reference, floor: _Floor, boot: np.ndarray,
+              where: list[Binning], pair_with: str | None, pairs_after: np.ndarray | None) -> Evidence:
+    """The held-out scores the verdict decides on: reference and candidates' residuals ``(m,)`` and
+    ``(c, m)`` (um), the floor, the bootstrap, whether any bin of ``where`` stands out, and the pairs."""
+    return Evidence(
+        names=tuple(a.cand.name for a in assessed),
+        reference=reference.residual,
+        after=np.array([a.after for a in assessed]).reshape(len(assessed), reference.residual.size),
+        floor=floor.per_point,
+        floor_rse=floor.rse,
+        boot=boot,
+        structure=any(b.significant for w in where for b in w.bins),
+        pair_with=pair_with,
+        pairs_after=pairs_after,
+        within=tuple(getattr(a.cand, "within", None) for a in assessed),
+        floor_kind=floor.kind,
+        floor_estimate=floor.estimate,
+    )
+
+
+def _interval(samples: np.ndarray) -> tuple[float, float]:
+    """The central :data:`CONFIDENCE` interval of bootstrap ``samples`` ``(n_boot,)``."""
+    lo_q, hi_q = (1 - CONFIDENCE) / 2, 1 - (1 - CONFIDENCE) / 2
+    return float(np.quantile(samples, lo_q)), float(np.quantile(samples, hi_q))
+
+
+def _candidate_scores(assessed: list[_Assessed], evidence: Evidence, boot: np.ndarray) -> list[CandidateScore]:
+    """Each assessed candidate's :class:`CandidateScore` (RMSE in um, shrink, intervals, MSE gain in
+    um^2, share of the excess closed), largest gain first."""
+    z, mse_base, mse, shrink = evidence.z(), evidence.mse_base, evidence.mse, evidence.shrink
+    excess = evidence.excess()
+    shrink_boot = 1.0 - np.sqrt(boot[:, 1:] / boot[:, :1])
+    scores = []
+    for i, a in enumerate(assessed):
+        share = None
+        if excess is not None and excess > 0:
+            share = float(min((mse_base - mse[i]) / excess, 1.0))
+        scores.append(CandidateScore(a.cand.name, float(np.sqrt(mse[i])), float(shrink[i]),
+                                     evidence.interval(i, CONFIDENCE), float(mse_base - mse[i]), float(z[i]),
+                                     a.params, a.visible, a.note, share, _interval(shrink_boot[:, i]), a.fitted,
+                                     a.setting))
+    order = np.argsort([-s.gain_um2 for s in scores], kind="stable")
+    return [scores[i] for i in order]
+
+
+def _check_points(scored: _Scored, reference: _Reference, floor: _Floor) -> CheckPoints:
+    """The scored check points as reported, the residual ``model - measured`` against the reference."""
+    return CheckPoints(
+        run=np.concatenate([np.full(r.size, i) for i, r in enumerate(scored.rows)]),
+        index=np.concatenate(scored.rows),
+        measured=scored.measured,
+        predicted=scored.predicted,
+        residual=-reference.residual,
+        floor=floor.per_point,
+        features=scored.features,
+    )
+
+
+def _measurement_noise(noise: NoiseEstimate | None, scored: _Scored) -> float | None:
+    """The rms noise of the check points as measured (um, their readings each), None without an estimate."""
+    if not noise:
+        return None
+    return _rms(np.concatenate([np.full(r.size, noise.sigma_for(run.readings))
+                                for run, r in zip(scored.runs, scored.rows)]))
+
+
+def _bin_after_correction(result: Diagnosis, named: tuple[str, ...], names: list[str],
+                          pairs_after: np.ndarray | None, unit_names: dict[str, str]) -> None:
+    """Bin what is left once corrected (:attr:`Diagnosis.where_after`): with both effects when the verdict
+    names two (``names`` the assessed candidates in the order of ``pairs_after``; also added to
+    :attr:`Diagnosis.residual_after` as ``first+second``), else with the chosen effect."""
+    points, residual_after, chosen = result.points, result.residual_after, result.chosen
+    if len(named) == 2 and pairs_after is not None:  # what is left with both named effects
+        j = names.index(named[1])
+        residual_after["+".join(named)] = -pairs_after[j]
+        object.__setattr__(result, "where_after", bin_residuals(points.features, -pairs_after[j], points.floor,
+                                                                unit_names))
+    elif chosen is not None and chosen in residual_after:
+        object.__setattr__(result, "where_after", bin_residuals(points.features, residual_after[chosen],
+                                                                points.floor, unit_names))
+
+
 # ---------------------------------------------------------------- the diagnosis
 def diagnose(
     fit_runs: list[Run] | tuple[Run, ...],
@@ -373,16 +702,7 @@ def diagnose(
     """
     settings = settings or DiagnosisSettings()
     fit_runs, check_runs = tuple(fit_runs), tuple(check_runs)
-    if not check_runs:
-        raise IdentifyError("no check run: the diagnosis judges on held-out runs, never on the fitted ones")
-    names = [r.name for r in fit_runs + check_runs]
-    if len(set(names)) != len(names):
-        raise IdentifyError(f"run names must be distinct, got {', '.join(names)}")
-    units = {(r.input_unit, r.output_unit) for r in fit_runs + check_runs}
-    if len(units) != 1:
-        raise IdentifyError("the runs record different units: "
-                            + ", ".join(f"{r.name} {r.input_unit} in, {r.output_unit} out" for r in fit_runs + check_runs))
-    input_unit, output_unit = units.pop()
+    input_unit, output_unit = _run_units(fit_runs, check_runs)
     unit_names = {"V": input_unit, "um": output_unit}
     cands = candidates if candidates is not None else library(
         None if settings.effects is None else tuple(n for n in settings.effects if n != Resolution.name))
@@ -390,219 +710,57 @@ def diagnose(
     base = fit_base(grid, fit_runs, settings.method, thermal_term=settings.thermal_term,
                     settings=settings.method_settings)
     warnings += list(base.notes)
-
-    used, rows = [], []
-    for run in check_runs:
-        r = _scored_rows(grid, run, warnings)
-        if r.size == 0:
-            warnings.append(f"{run.name}: no measured point inside the identification range; not used")
-            continue
-        used.append(run)
-        rows.append(r)
-    if not used:
-        raise IdentifyError("no check point lies inside the identification range; nothing to judge the model on")
-    n_fit = len(fit_runs)
+    used, rows = _scored_check_runs(grid, check_runs, warnings)
     if candidates is None and (settings.effects is None or Resolution.name in settings.effects):
-        cands = [*cands, Resolution(grid, fit_runs, tuple(used), settings.method, base.thermal_term,
+        cands = [*cands, Resolution(grid, fit_runs, used, settings.method, base.thermal_term,
                                     settings.method_settings)]
-    ctx = Context.of_model(base.model, fit_runs + tuple(used), n_fit)
-    preds = ctx.predictions[n_fit:]
-    regs = np.vstack([base.regressor(run)[r] for run, r in zip(used, rows)])
-    blocks = make_blocks([r.size for r in rows])
-    scored = _Scored(tuple(used), tuple(rows), base.carry_over(regs), blocks)
+    ctx, scored = _held_out_gap(base, fit_runs, used, rows)
+    reference = _reference(base, scored)
+    floor = _noise_floor(base, scored, reference, monitors, warnings)
+    fit_weight = _fit_weight(floor.noise, fit_runs, used)
 
-    measured = np.concatenate([run.outputs[r] for run, r in zip(used, rows)])
-    predicted = np.concatenate([p[r] for p, r in zip(preds, rows)])
-    gap = measured - predicted  # what the model misses; the residual reported is -gap
-    features: dict[str, list[np.ndarray]] = {}
-    for run, r, p in zip(used, rows, preds):
-        for key, value in _features(run, r, p).items():
-            features.setdefault(key, []).append(value)
-    feats = {k: np.concatenate(v) for k, v in features.items()}
-
-    # the reference: the base model with the directions the identification design leaves poorly
-    # determined (noise amplified > AMPLIFICATION into the check predictions) re-estimated on held-out
-    # check blocks, so that identification noise carried through them does not pose as an effect
-    recal, amplification = uncertain_directions(base.carry_factor(regs))
-    k_recal = recal.shape[1]
-    if k_recal:
-        ref = cross_validate(gap, blocks, [Design(recal)])
-        reference = gap - ref.prediction
-    else:
-        reference = gap
-    carry_rest = scored.carry - recal @ (recal.T @ scored.carry)
-
-    noise = estimate_noise(base, list(used), monitors)
-    scored_runs = [(run, r.size) for run, r in zip(used, rows)]
-    extra = k_recal / max(gap.size, 1)
-    # a floor is measured (repeated readings of one memory state) or only bounded by the fit's residual
-    floor_kind: str | None = "measured" if noise is not None and noise.measured else None
-    floor = floor_estimate = None
-    floor_rse = 0.0
-    if floor_kind == "measured":
-        floor = floor_per_point(noise, base, scored_runs, carry_rest, extra=extra)
-        floor_rse = noise.relative_se_of_variance
-    else:
-        bound = fit_residual_bound(base)
-        if bound is not None:
-            floor_kind = "bound"
-            floor = floor_per_point(bound, base, scored_runs, carry_rest, extra=extra)
-            if noise is not None:
-                floor_estimate = floor_per_point(noise, base, scored_runs, carry_rest, extra=extra)
-            noise = noise or bound
-            warnings.append("no measured noise floor (no repeated runs, repeated set-points or calibration "
-                            "points): the noise is only bounded, from the base fit's residual, so the verdict "
-                            "cannot say 'no gap'")
-    floor_rms = _rms(floor) if floor is not None else None
-    if floor is None:
-        warnings.append("no noise estimate: no repeated runs or set-points, and the base fit leaves no "
-                        "residual degree of freedom; bins are judged by their own scatter")
-
-    # the identification points weigh in the joint fit as their noise says (K readings each)
-    fit_weight = 1.0
-    if noise is not None and noise.readings is not None:
-        k_fit = {r.readings for r in fit_runs}
-        k_check = {r.readings for r in used}
-        if len(k_fit) == 1 and len(k_check) == 1 and None not in k_fit | k_check:
-            fit_weight = (noise.sigma_for(k_check.pop()) / noise.sigma_for(k_fit.pop())) ** 2
-
-    # candidates: held-out predictions of the gap
-    ind = onehot(blocks)
-    results, not_assessed = [], []
-    fits: dict[str, tuple] = {}
-    for cand in cands:
-        why_not = cand.applicable(ctx.runs)
-        if why_not is not None:
-            not_assessed.append((cand.name, f"not applicable: {why_not}"))
-            continue
-        grid_settings = cand.settings_grid()
-        cols_list = _columns(cand, ctx, grid_settings)
-        reason = _assessable(cand, cols_list[0], scored, n_fit)
-        if reason is not None:
-            not_assessed.append((cand.name, reason))
-            continue
-        parts = _shared(cols_list, lambda c: _effective(base, scored, c))
-        visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list, floor_rms,
-                                output_unit)
-        designs = [_with_reference(e, a, c, recal) for (e, a, _), c in zip(parts, cols_list)]
-        cv = cross_validate(gap, blocks, designs, base.residual, fit_weight)
-        after = gap - cv.prediction
-        if cand.stage == INPUT and _rms(cv.prediction) >= RELINEARISE * (floor_rms or _rms(gap) / RELINEARISE):
-            after = _relinearised(cand, base, ctx, scored, grid_settings[cv.full_setting], cols_list[cv.full_setting],
-                                  designs[cv.full_setting], gap, recal, fit_weight)
-        full = cols_list[cv.full_setting]
-        fitted = cand.with_fit(ctx, grid_settings[cv.full_setting], cv.full_coef[: full.k], full)
-        params = fitted.report(ctx.runs)
-        results.append((cand, after, params, visible, note, fitted, grid_settings[cv.full_setting]))
-        fits[cand.name] = (parts, cols_list, cv.full_setting, cv.chosen)
-
-    # a second effect: every other candidate that improves the held-out error on its own (a second must
-    # stand on its own too, see the verdict) fitted together with the one that improves most
-    pair_with, pairs_after = None, None
-    if results:
-        best = min(results, key=lambda r: float(np.mean(r[1] ** 2)))[0].name
-        pair_with = best
-        pairs_after = np.full((len(results), gap.size), np.nan)
-        pa, ca, sa, _ = fits[best]
-        mse_reference = float(np.mean(reference**2))
-        for i, (cand, after_i, *_rest) in enumerate(results):
-            if cand.name == best or float(np.mean(after_i**2)) >= mse_reference:
-                continue
-            pb, cb, _, picked = fits[cand.name]
-            designs = [_pair_design(pa[sa], ca[sa], p, c, recal) for p, c in zip(pb, cb)]
-            # the second keeps the setting its own cross-validation chose for each held-out block (without
-            # that block): a nested search over both settings cost more than all the single candidates
-            pairs_after[i] = gap - cross_validate(gap, blocks, designs, base.residual, fit_weight,
-                                                  chosen=picked).prediction
-
-    sse_base = ind @ reference**2
-    sse = np.array([ind @ a**2 for _, a, *_ in results]).reshape(len(results), blocks.count)
-    boot = bootstrap_mse(np.vstack([sse_base[None, :], sse]), blocks, settings.n_boot, settings.seed)
-    lo_q, hi_q = (1 - CONFIDENCE) / 2, 1 - (1 - CONFIDENCE) / 2
-    shrink_boot = 1.0 - np.sqrt(boot[:, 1:] / boot[:, :1])
-
-    where = bin_residuals(feats, -reference, floor if floor_kind == "measured" else None, unit_names)
-    structure = any(b.significant for w in where for b in w.bins)
-    evidence = Evidence(
-        names=tuple(c.name for c, *_ in results),
-        reference=reference,
-        after=np.array([a for _, a, *_ in results]).reshape(len(results), reference.size),
-        floor=floor,
-        floor_rse=floor_rse,
-        boot=boot,
-        structure=structure,
-        pair_with=pair_with,
-        pairs_after=pairs_after,
-        within=tuple(getattr(c, "within", None) for c, *_ in results),
-        floor_kind=floor_kind,
-        floor_estimate=floor_estimate,
-    )
+    # which: the candidates on held-out blocks, alone and a second beside the best; where: the residual binned
+    assessed, not_assessed = _held_out_candidates(cands, base, ctx, scored, reference, floor.rms_um, fit_weight,
+                                                  output_unit)
+    pair_with, pairs_after = _second_effect(assessed, base, scored, reference, fit_weight)
+    boot = _bootstrap(assessed, reference, scored.blocks, settings)
+    where = bin_residuals(scored.features, -reference.residual, floor.per_point if floor.kind == "measured" else None,
+                          unit_names)
+    evidence = _evidence(assessed, reference, floor, boot, where, pair_with, pairs_after)
     verdict = with_unassessed(evidence.decide(), not_assessed)
-    z, mse_base, mse, shrink = evidence.z(), evidence.mse_base, evidence.mse, evidence.shrink
+    scores = _candidate_scores(assessed, evidence, boot)
 
-    excess = evidence.excess()
-    floor_sq = float(np.mean(floor**2)) if floor is not None else None
-    scores = []
-    for i, (cand, after, params, visible, note, fitted, setting) in enumerate(results):
-        share = None
-        if excess is not None and excess > 0:
-            share = float(min((mse_base - mse[i]) / excess, 1.0))
-        boot_ci = (float(np.quantile(shrink_boot[:, i], lo_q)), float(np.quantile(shrink_boot[:, i], hi_q)))
-        scores.append(CandidateScore(cand.name, float(np.sqrt(mse[i])), float(shrink[i]),
-                                     evidence.interval(i, CONFIDENCE), float(mse_base - mse[i]), float(z[i]),
-                                     params, visible, note, share, boot_ci, fitted, setting))
-    order = np.argsort([-s.gain_um2 for s in scores], kind="stable")
-    scores = [scores[i] for i in order]
-    residual_after = {cand.name: -after for cand, after, *_ in results}
-
-    diag_points = CheckPoints(
-        run=np.concatenate([np.full(r.size, i) for i, r in enumerate(rows)]),
-        index=np.concatenate(rows),
-        measured=measured,
-        predicted=predicted,
-        residual=-reference,
-        floor=floor,
-        features=feats,
-    )
-    base_boot = np.sqrt(boot[:, 0])
     result = Diagnosis(
         grid=grid,
         method=base.method,
         base=base,
         fit_runs=tuple(r.name for r in fit_runs),
         check_runs=tuple(r.name for r in used),
-        baseline_rmse_um=float(np.sqrt(mse_base)),
-        fit_only_rmse_um=_rms(gap),
-        amplification=tuple(float(x) for x in amplification[:MAX_REPORTED_AMPLIFICATION]),
-        recalibrated=k_recal,
-        baseline_ci=(float(np.quantile(base_boot, lo_q)), float(np.quantile(base_boot, hi_q))),
-        noise=noise,
-        noise_floor_um=float(np.sqrt(floor_sq)) if floor_sq is not None else None,
-        measurement_noise_um=_rms(np.concatenate([np.full(r.size, noise.sigma_for(run.readings))
-                                                  for run, r in zip(used, rows)])) if noise else None,
+        baseline_rmse_um=float(np.sqrt(evidence.mse_base)),
+        fit_only_rmse_um=_rms(scored.gap),
+        amplification=tuple(float(x) for x in reference.amplification[:MAX_REPORTED_AMPLIFICATION]),
+        recalibrated=reference.recal.shape[1],
+        baseline_ci=_interval(np.sqrt(boot[:, 0])),
+        noise=floor.noise,
+        noise_floor_um=float(np.sqrt(float(np.mean(floor.per_point**2)))) if floor.per_point is not None else None,
+        measurement_noise_um=_measurement_noise(floor.noise, scored),
         where=where,
         candidates=scores,
         not_assessed=not_assessed,
         verdict=verdict,
-        points=diag_points,
-        residual_after=residual_after,
+        points=_check_points(scored, reference, floor),
+        residual_after={a.cand.name: -a.after for a in assessed},
         where_after=None,
         warnings=warnings,
         evidence=evidence,
         input_unit=input_unit,
         output_unit=output_unit,
-        floor_kind=floor_kind,
+        floor_kind=floor.kind,
     )
-    chosen = result.chosen
     named = verdict_effects(verdict)
-    if len(named) == 2 and pairs_after is not None:  # what is left with both named effects
-        j = [c.name for c, *_ in results].index(named[1])
-        residual_after["+".join(named)] = -pairs_after[j]
-        object.__setattr__(result, "where_after", bin_residuals(feats, -pairs_after[j], floor, unit_names))
-    elif chosen is not None and chosen in residual_after:
-        object.__setattr__(result, "where_after", bin_residuals(feats, residual_after[chosen], floor, unit_names))
+    _bin_after_correction(result, named, [a.cand.name for a in assessed], pairs_after, unit_names)
     if named and settings.keep:
-        object.__setattr__(result, "kept", _kept(result, grid, fit_runs, tuple(used), tuple(rows), named, settings,
+        object.__setattr__(result, "kept", _kept(result, grid, fit_runs, used, rows, named, settings,
                                                  base.thermal_term))
     return result
 
