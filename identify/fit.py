@@ -143,17 +143,20 @@ def fit_run(
     method: str = "ls",
     effects: list[Effect] | tuple[Effect, ...] = (),
     *,
+    rows: np.ndarray | None = None,
     thermal_term: bool = True,
     settings: dict[str, Any] | None = None,
     curves: np.ndarray | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> FitReport:
     """Identify a model with ``effects`` (unfitted :class:`identify.effects.Effect` instances; none: equation
-    (22) alone) from one recorded :class:`~identify.runs.Run`: its measured points, every applied point
-    setting the memory.  The one fit every front end calls.
+    (22) alone) from one recorded :class:`~identify.runs.Run`: its measured points (or only ``rows``, sorted
+    indices ``(m,)`` of measured points), every applied point setting the memory.  The one fit every front
+    end calls.
 
-    Without effects this is :func:`fit_sequence` on the run's measured rows (``curves`` and ``progress`` as
-    there); with effects the density is fitted jointly with their terms (:mod:`identify.effects.joint`) and
+    Without effects this is :func:`fit_sequence` on those rows (``curves`` and ``progress`` as there; the
+    run's other measured outputs stay visible to the methods that use the order of all outputs,
+    ``cs_order``); with effects the density is fitted jointly with their terms (:mod:`identify.effects.joint`) and
     ``info`` adds ``base_rmse`` (the same fit without the effects, um), ``effect_settings`` and the number
     of linear ``solves``.
     """
@@ -162,8 +165,10 @@ def fit_run(
         if not isinstance(e, Effect):
             raise TypeError(f"effects are Effect instances (identify.effects.parse_effects), not {e!r}")
     if not chosen:
-        return fit_sequence(grid, run.inputs, run.outputs, method, rows=run.rows, thermal_term=thermal_term,
-                            settings=settings, curves=curves, progress=progress)
+        return fit_sequence(grid, run.inputs, run.outputs, method, rows=run.rows if rows is None else rows,
+                            thermal_term=thermal_term, settings=settings, curves=curves, progress=progress)
+    if rows is not None:
+        run = run.keeping(rows)
     with blas_threads_for(grid.n_cells + 2):  # the joint fit's many solves and products, on one thread when small
         joint = fit_with_effects(grid, [run], method, chosen, thermal_term=thermal_term, settings=settings)
     return FitReport(

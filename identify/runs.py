@@ -11,7 +11,7 @@ negative saturation), so the diagnosis and the sequencer agree on them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -93,6 +93,14 @@ class Run:
     def rows(self) -> np.ndarray:
         """Indices of the measured points, ``(m,)``."""
         return np.flatnonzero(np.isfinite(self.outputs))
+
+    def keeping(self, rows: np.ndarray) -> "Run":
+        """This run with only ``rows`` (indices, ``(m,)``) measured: the other outputs NaN, every applied
+        point still there (it still sets the memory)."""
+        kept = np.full(self.outputs.shape, np.nan)
+        rows = np.asarray(rows, dtype=np.int64)
+        kept[rows] = self.outputs[rows]
+        return replace(self, outputs=kept)
 
     @property
     def measured(self) -> np.ndarray:

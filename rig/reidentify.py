@@ -217,8 +217,8 @@ class IdentifyJob:
     ``label`` prefixes fitting errors (set in batches, to name the file);
     ``curves`` ``(n,)`` the curve of every point (-1: none), when the run has curves;
     ``effects`` the (unfitted) effects to fit with the density, none for equation
-    (22) alone, and ``run`` the recorded run the fit reads (time stamps, dwells;
-    its outputs at ``rows`` only).
+    (22) alone, and ``run`` the recorded run the fit reads (time stamps, dwells,
+    every measured output; the fit uses ``rows``).
     """
 
     path: Path
@@ -345,12 +345,13 @@ def check_grid(job: IdentifyJob, yes: bool) -> None:
 
 def _checked_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: IdentifyOptions,
                  source: str = "option") -> Run:
-    """The run to fit (its outputs at ``rows`` only), checked before anything is fitted when effects are
-    asked for: a method that can fit them, and a run that can identify them (one-line errors otherwise;
-    ``source``: where the effects came from, ``session`` naming the session's recipe)."""
+    """The run to fit (every measured output: the fit takes ``rows``), checked before anything is fitted
+    when effects are asked for: a method that can fit them, and a run whose ``rows`` can identify them
+    (one-line errors otherwise; ``source``: where the effects came from, ``session`` naming the session's
+    recipe)."""
     from identify.methods import METHODS
 
-    run = run_of(data, rows=rows)
+    run = run_of(data)
     if not o.effects:
         return run
     given = "--with" if source != "session" else f"{path}: the effects of its identification recipe"
@@ -360,8 +361,9 @@ def _checked_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: I
     if METHODS[o.method].needs_square:
         raise UserError(f"{given}: {o.method} needs the square damped-oscillation design, which has no room for "
                         "effect terms; fit effects with ls or smooth_nn (or everett on FORC data)")
+    fitted = run.keeping(rows)
     for e in o.effects:
-        why = e.identifiable((run,), grid)
+        why = e.identifiable((fitted,), grid)
         if why is not None:
             raise UserError(f"{path}: {e.name} cannot be identified from this run: {why}")
     return run
@@ -372,7 +374,7 @@ def fit_job(job: IdentifyJob, progress: Callable[[str], None] | None = None) -> 
     ``progress``: see :func:`identify.fit.fit_sequence` (the fit of a model without effects reports stages)."""
     settings = None if job.solver is None else {"solver": job.solver}
     try:
-        report = fit_run(job.grid, job.run, job.method, job.effects, thermal_term=job.thermal_term,
+        report = fit_run(job.grid, job.run, job.method, job.effects, rows=job.rows, thermal_term=job.thermal_term,
                          settings=settings, curves=job.curves, progress=progress)
     except IdentifyError as exc:
         if job.label is None:

@@ -116,7 +116,7 @@ def test_a_fit_of_50_million_parameters_is_refused_before_it_starts(session, mon
     def never(*args, **kwargs):
         raise AssertionError("the fit started")
 
-    monkeypatch.setattr("rig.reidentify.fit_sequence", never)
+    monkeypatch.setattr("rig.reidentify.fit_run", never)
     run = rig_here("identify", session, "--levels", 10000, "--no-store")
     assert_one_line_error(run, f"rig identify {session}: ", "estimated memory", "(limit 4 GB)", "--yes")
     # --force (replace a stored model) is not the confirmation: --yes is
