@@ -1,7 +1,7 @@
 """Rig time against check error: the paper's protocol, fixed dwells, and ``rig acquire --rig-time`` plans.
 
 Devices with thermal time constants from 0.5 to 20 s (log-uniform, seeds
-fixed below) come from three simulators:
+fixed below) come from four simulators:
 
 * ``sim``: this project's simulated device (``drivers.sim``: one
   first-order, power-driven lag -- the very form ``thermal_lag`` models;
@@ -10,8 +10,11 @@ fixed below) come from three simulators:
   ``benchmarks/rigtime/SPEC.md`` by helpers who never saw the planner nor
   the ``thermal_lag`` effect (one to three modes, heating and cooling
   asymmetries, sensor averaging, small extra imperfections).  ``rt_a`` was
-  looked at while the planner's constants were set; **``rt_b`` is the
-  headline** (its seeds and forms were drawn once, below, before any run).
+  looked at while the planner's constants were set; ``rt_b`` was meant as
+  the headline but was looked at while the planner was still changing;
+* ``rt_c``: a third, written blind the same way after the planner was
+  frozen (2026-11-28): **the headline**, its seeds fixed below before its
+  first run, run once with the planner as it stood.
 
 For every device: the identification run of each protocol and one
 quasi-static check run (200 random set-points, each held until the
@@ -65,7 +68,7 @@ PAPER_DWELL_S = 20.0
 FIXED_DWELLS_S = (2.0, 5.0, 10.0, 60.0)
 BUDGET_FRACTIONS = (0.1, 0.2, 0.4)
 #: Seeds of the devices (fixed before any run; device k of a generator uses SEED0 + k).
-SEED0 = {"sim": 41000, "rt_a": 42000, "rt_b": 43000}
+SEED0 = {"sim": 41000, "rt_a": 42000, "rt_b": 43000, "rt_c": 44000}
 TAU_RANGE_S = (0.5, 20.0)
 #: Targets of the ``--target-nrmse`` runs, and the dwell of their points (s).
 TARGETS = (0.003, 0.001)
