@@ -163,4 +163,6 @@ def test_speed():
     rt_b.simulate(dev, sch, form, 0, None)
     t = time.perf_counter()
     rt_b.simulate(dev, sch, form, 0, None)
-    assert time.perf_counter() - t < 1.0
+    # a guard against a pathological slow-down (e.g. stepping the linear dynamics point by point), not a
+    # benchmark: typically 0.2-0.5 s, and a loaded 2-core CI machine must not fail it
+    assert time.perf_counter() - t < 5.0

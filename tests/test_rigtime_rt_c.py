@@ -171,4 +171,4 @@ def test_speed_500_points():
     rt.simulate(d, _schedule(v[:10], 2.0), form, 0, None)
     t = time.perf_counter()
     rt.simulate(d, _schedule(v, 2.0, K=4, reading_s=0.2), form, 0, None)
-    assert time.perf_counter() - t < 2.0       # a loaded CI machine; typically ~0.1 s
+    assert time.perf_counter() - t < 5.0       # a guard, not a benchmark: typically ~0.1 s on a quiet machine
