@@ -31,7 +31,6 @@ outside what SWMR supports.
 from __future__ import annotations
 
 import enum
-from importlib.metadata import PackageNotFoundError, version
 
 import numpy as np
 
@@ -172,6 +171,9 @@ DEFAULT_QUANTITIES = {
 
 def software_version() -> str:
     """The installed vo2rig version (stored in every session and model)."""
+    # imported here: importlib.metadata (with email) costs a command that only reads about 15 ms of start-up
+    from importlib.metadata import PackageNotFoundError, version
+
     try:
         return version("vo2rig")
     except PackageNotFoundError:  # pragma: no cover - running from a source tree

@@ -24,7 +24,6 @@ L = 200) and a dense ``A S``.
 
 from __future__ import annotations
 
-import clarabel
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
@@ -43,16 +42,17 @@ SPD_LU = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0, "options": {"
 SMALL_GRAM = 2000
 
 
-def _settings() -> "clarabel.DefaultSettings":
-    s = clarabel.DefaultSettings()
-    s.verbose = False
-    s.tol_gap_rel = s.tol_gap_abs = s.tol_feas = TOLERANCE
-    return s
+def _run(P, q, A, b, nonneg: int, soc: int = 0) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Clarabel on ``min x^T P x / 2 + q^T x`` s.t. ``b - A x`` in ``nonneg`` half-lines, then a
+    second-order cone of ``soc`` rows (none when 0): ``(x, z, info)``."""
+    import clarabel  # here, not at import: the command's start-up need not pay for it
 
-
-def _run(P, q, A, b, cones) -> tuple[np.ndarray, np.ndarray, dict]:
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_rel = settings.tol_gap_abs = settings.tol_feas = TOLERANCE
+    cones = [clarabel.NonnegativeConeT(nonneg)] + ([clarabel.SecondOrderConeT(soc)] if soc else [])
     solution = clarabel.DefaultSolver(
-        scipy.sparse.csc_matrix(P), q, scipy.sparse.csc_matrix(A), b, cones, _settings()
+        scipy.sparse.csc_matrix(P), q, scipy.sparse.csc_matrix(A), b, cones, settings
     ).solve()
     status = str(solution.status)
     if status not in ("Solved", "AlmostSolved"):
@@ -84,8 +84,7 @@ def nnls_outputs(inverse: scipy.sparse.csr_array, n_cells: int, target: np.ndarr
     info = {"status": "active set", "iterations": 0, "exact": b is not None}
     if b is None:
         x, z, info = _run(
-            scipy.sparse.identity(n, format="csc"), -y, -cells, np.zeros(n_cells),
-            [clarabel.NonnegativeConeT(n_cells)],
+            scipy.sparse.identity(n, format="csc"), -y, -cells, np.zeros(n_cells), n_cells,
         )
         b = _active_set_projection(cells, y, z > np.maximum(cells @ x, 0.0))
         info["exact"] = b is not None
@@ -203,7 +202,7 @@ def l1_outputs(
         x, _, info = _run(
             scipy.sparse.csc_array((free.size + n_cells,) * 2),
             np.concatenate([np.zeros(free.size), np.ones(n_cells)]),
-            A, np.concatenate([-fixed, fixed]), [clarabel.NonnegativeConeT(2 * n_cells)],
+            A, np.concatenate([-fixed, fixed]), 2 * n_cells,
         )
         b = np.zeros(n)
         b[rows] = y
@@ -224,7 +223,7 @@ def l1_outputs(
         x, _, info = _run(
             scipy.sparse.csc_array((n + n_cells,) * 2),
             np.concatenate([np.zeros(n), np.ones(n_cells)]),
-            A, rhs, [clarabel.NonnegativeConeT(2 * n_cells), clarabel.SecondOrderConeT(rows.size + 1)],
+            A, rhs, 2 * n_cells, soc=rows.size + 1,
         )
         b = x[:n]
     return (inverse @ b) * scale, info

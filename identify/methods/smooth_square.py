@@ -35,8 +35,6 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
-import clarabel
-
 from ..errors import IdentifyError
 from .gcv import choose, curve_from_spectrum
 from .output_space import SPD_LU, _run
@@ -75,7 +73,7 @@ def solve_outputs(problem: Problem, weight: float | None) -> tuple[np.ndarray, d
     target = np.zeros(n)
     target[rows] = y
     hessian = scipy.sparse.triu(scipy.sparse.diags_array(data) + lam * penalty, format="csc")
-    b, _, qp = _run(hessian, -target, -t_cells, np.zeros(cells), [clarabel.NonnegativeConeT(cells)])
+    b, _, qp = _run(hessian, -target, -t_cells, np.zeros(cells), cells)
     w = (inverse @ b) * scale
     w[:cells] = np.maximum(w[:cells], 0.0)
     return w, {**info, "weight": lam, **qp}

@@ -15,6 +15,8 @@ from typing import NamedTuple
 
 import click
 
+from ..numpy_tools import defer_numpy_tools
+
 
 class CommandEntry(NamedTuple):
     """One subcommand: its name, the module that defines it, the click command's attribute, its one-line help,
@@ -72,5 +74,7 @@ BY_NAME: dict[str, CommandEntry] = {entry.name: entry for entry in COMMANDS}
 
 
 def load(entry: CommandEntry) -> click.Command:
-    """The click command of ``entry`` (imports its module)."""
+    """The click command of ``entry`` (imports its module, after :func:`~rig.numpy_tools.defer_numpy_tools`:
+    every command imports scipy)."""
+    defer_numpy_tools()
     return getattr(importlib.import_module(entry.module), entry.attribute)
