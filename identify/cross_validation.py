@@ -292,7 +292,6 @@ def cross_validate(
     designs: list[Design],
     fit_residual: np.ndarray | None = None,
     fit_weight: float = 1.0,
-    chosen: np.ndarray | None = None,
 ) -> CrossValidation:
     """Leave-one-block-out predictions of ``gap`` ``(m,)`` by a candidate with settings ``designs``.
 
@@ -305,9 +304,8 @@ def cross_validate(
     fitted on all remaining blocks and used to predict the held-out one.  The inner cross-validation leaves out :data:`INNER_FOLDS`
     contiguous groups of the remaining blocks in turn.  The inner choice
     honours the sign constraints through :func:`feasible_coefficients`
-    (nearly optimal); the outer fits solve them exactly.  ``chosen`` ``(B,)``
-    gives the setting for each held-out block instead (chosen without
-    that block elsewhere, e.g. by this candidate's own cross-validation).
+    (nearly optimal); the outer fits solve them exactly.  With the settings already chosen for each
+    held-out block, :func:`predict_at_chosen` gives the prediction alone.
     """
     nb = blocks.count
     m = gap.size
@@ -326,9 +324,7 @@ def cross_validate(
         outer[s] = _block_sse(ne, gg, coef, others)
     for b in range(nb):
         best = 0
-        if chosen is not None:
-            best = int(chosen[b])
-        elif len(normals) > 1:
+        if len(normals) > 1:
             inner = np.array([0.0] * len(normals))
             rest = others[others != b]
             for s, ne in enumerate(normals):
@@ -350,6 +346,26 @@ def cross_validate(
     ne = normals[s_full]
     full = solve_coefficients(ne.gram, ne.rhs, ne.nonneg)
     return CrossValidation(prediction, picked, s_full, full / ne.scale)
+
+
+def predict_at_chosen(gap: np.ndarray, blocks: Blocks, designs, chosen: np.ndarray,
+                      fit_residual: np.ndarray | None = None, fit_weight: float = 1.0) -> np.ndarray:
+    """Leave-one-block-out predictions of ``gap`` ``(m,)`` with the setting ``chosen[b]`` of ``designs``
+    for each held-out block ``b`` (chosen without that block elsewhere, e.g. by a candidate's own
+    cross-validation): :func:`cross_validate`'s outer fits, solved only for the chosen setting of each
+    block -- the same numbers, without the systems of the settings no block uses.  ``designs``: indexed
+    by setting (a list, or a mapping holding at least the chosen ones)."""
+    ind = onehot(blocks)
+    chosen = np.asarray(chosen, dtype=int)
+    prediction = np.zeros(gap.size)
+    for s in np.unique(chosen):
+        ne = _normal(designs[s], gap, ind, fit_residual, fit_weight)
+        mine = np.flatnonzero(chosen == s)
+        coef = solve_coefficients(ne.gram - ne.block_gram[mine], ne.rhs - ne.block_rhs[mine], ne.nonneg)
+        for b, c in zip(mine, coef):
+            rows = blocks.index == b
+            prediction[rows] = ne.check[rows] @ c
+    return prediction
 
 
 def coefficients_without(design: Design, gap: np.ndarray, blocks: Blocks, exclude: np.ndarray,

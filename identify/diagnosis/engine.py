@@ -38,7 +38,8 @@ from .binning import Binning, bin_residuals
 from .candidates import Candidate, library
 from .noise import NoiseEstimate, estimate_noise, fit_residual_bound, floor_per_point
 from .resolution import Resolution
-from ..cross_validation import Blocks, Design, bootstrap_mse, coefficients_without, cross_validate, make_blocks, onehot
+from ..cross_validation import (Blocks, Design, bootstrap_mse, coefficients_without, cross_validate, make_blocks,
+                                onehot, predict_at_chosen)
 from .verdict import Evidence, Verdict
 
 #: Fraction of the scored range within which an input counts as inside the grid.
@@ -585,12 +586,13 @@ def _second_effect(assessed: list[_Assessed], base: BaseFit, scored: _Scored, re
         if a.cand.name == best or float(np.mean(a.after**2)) >= mse_reference:
             continue
         second = by_name[a.cand.name]
-        designs = [_pair_design(first.parts[first.full_setting], first.cols[first.full_setting], p, c, reference.recal)
-                   for p, c in zip(second.parts, second.cols)]
         # the second keeps the setting its own cross-validation chose for each held-out block (without
         # that block): a nested search over both settings cost more than all the single candidates
-        pairs_after[i] = gap - cross_validate(gap, scored.blocks, designs, base.residual, fit_weight,
-                                              chosen=second.chosen).prediction
+        designs = {s: _pair_design(first.parts[first.full_setting], first.cols[first.full_setting],
+                                   second.parts[s], second.cols[s], reference.recal)
+                   for s in np.unique(second.chosen)}
+        pairs_after[i] = gap - predict_at_chosen(gap, scored.blocks, designs, second.chosen, base.residual,
+                                                 fit_weight)
     return best, pairs_after
 
 
