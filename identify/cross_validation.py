@@ -291,23 +291,27 @@ def _block_sse(ne: _Normal, gg: np.ndarray, coef: np.ndarray, blocks: np.ndarray
 def _inner_errors(ne: _Normal, gg: np.ndarray) -> np.ndarray:
     """The inner cross-validation's squared error ``(B,)`` of one setting for each held-out block ``b``: the
     other blocks' errors, each left out in turn (or :data:`INNER_FOLDS` groups of them for a wide design)
-    from the fit without ``b``.  The narrow designs' systems of many held-out blocks are solved in one
-    batch (at most :data:`BATCH_ENTRIES` matrix entries): the same systems, without a Python round per block."""
+    from the fit without ``b``.
+
+    A narrow design leaves out every pair of blocks, and the fit without ``b`` and ``c`` is the same for
+    held-out ``b`` (scored on ``c``) and held-out ``c`` (scored on ``b``): each pair's system is solved
+    once, ``(G - G_b) - G_c`` for ``b < c`` (for ``b > c`` it differs from the per-block order only by
+    rounding), in batches of at most :data:`BATCH_ENTRIES` matrix entries.
+    """
     nb, k = ne.block_rhs.shape
     others = np.arange(nb)
     out = np.zeros(nb)
     if k <= WIDE:  # leave each remaining block out in turn
-        step = max(1, BATCH_ENTRIES // max(1, (nb - 1) * k * k))
-        for first in range(0, nb, step):
-            held = others[first:first + step]
-            rest = np.array([others[others != b] for b in held]).reshape(held.size, nb - 1)
-            left = ne.gram - ne.block_gram[held]
-            left_r = ne.rhs - ne.block_rhs[held]
-            coef = feasible_coefficients(left[:, None] - ne.block_gram[rest], left_r[:, None] - ne.block_rhs[rest],
-                                         ne.nonneg)
-            sse = _block_sse(ne, gg, coef, rest)
-            out[held] = [np.sum(row) for row in sse]
-        return out
+        first, second = np.triu_indices(nb, 1)
+        sse = np.zeros((nb, nb))
+        step = max(1, BATCH_ENTRIES // max(1, k * k))
+        for start in range(0, first.size, step):
+            b, c = first[start:start + step], second[start:start + step]
+            coef = feasible_coefficients(ne.gram - ne.block_gram[b] - ne.block_gram[c],
+                                         ne.rhs - ne.block_rhs[b] - ne.block_rhs[c], ne.nonneg)
+            sse[b, c] = _block_sse(ne, gg, coef, c)
+            sse[c, b] = _block_sse(ne, gg, coef, b)
+        return np.array([np.sum(sse[b][others != b]) for b in range(nb)])
     sums: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}  # a group's parts, shared by the held-out blocks
     for b in range(nb):
         rest = others[others != b]
