@@ -58,6 +58,8 @@ N_BOOT = 2000
 #: that interpolate a single block's gap badly (a drift's held-out shrink fell from 0.30 to -0.02).
 WIDE = 60
 INNER_FOLDS = 10
+#: Most matrix entries of the narrow inner systems solved in one batch (8 bytes each).
+BATCH_ENTRIES = 2_000_000
 
 
 
@@ -286,13 +288,53 @@ def _block_sse(ne: _Normal, gg: np.ndarray, coef: np.ndarray, blocks: np.ndarray
     return gg[blocks] - 2.0 * np.sum(coef * r, axis=-1) + np.einsum("...i,...ij,...j->...", coef, g, coef)
 
 
+def _inner_errors(ne: _Normal, gg: np.ndarray) -> np.ndarray:
+    """The inner cross-validation's squared error ``(B,)`` of one setting for each held-out block ``b``: the
+    other blocks' errors, each left out in turn (or :data:`INNER_FOLDS` groups of them for a wide design)
+    from the fit without ``b``.
+
+    A narrow design leaves out every pair of blocks, and the fit without ``b`` and ``c`` is the same for
+    held-out ``b`` (scored on ``c``) and held-out ``c`` (scored on ``b``): each pair's system is solved
+    once, ``(G - G_b) - G_c`` for ``b < c`` (for ``b > c`` it differs from the per-block order only by
+    rounding), in batches of at most :data:`BATCH_ENTRIES` matrix entries.
+    """
+    nb, k = ne.block_rhs.shape
+    others = np.arange(nb)
+    out = np.zeros(nb)
+    if k <= WIDE:  # leave each remaining block out in turn
+        first, second = np.triu_indices(nb, 1)
+        sse = np.zeros((nb, nb))
+        step = max(1, BATCH_ENTRIES // max(1, k * k))
+        for start in range(0, first.size, step):
+            b, c = first[start:start + step], second[start:start + step]
+            coef = feasible_coefficients(ne.gram - ne.block_gram[b] - ne.block_gram[c],
+                                         ne.rhs - ne.block_rhs[b] - ne.block_rhs[c], ne.nonneg)
+            sse[b, c] = _block_sse(ne, gg, coef, c)
+            sse[c, b] = _block_sse(ne, gg, coef, b)
+        return np.array([np.sum(sse[b][others != b]) for b in range(nb)])
+    sums: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}  # a group's parts, shared by the held-out blocks
+    for b in range(nb):
+        rest = others[others != b]
+        left = ne.gram - ne.block_gram[b]
+        left_r = ne.rhs - ne.block_rhs[b]
+        groups = np.array_split(rest, min(INNER_FOLDS, rest.size))
+        for grp in groups:
+            if tuple(grp) not in sums:
+                sums[tuple(grp)] = (ne.block_gram[grp].sum(axis=0), ne.block_rhs[grp].sum(axis=0))
+        parts = [sums[tuple(grp)] for grp in groups]
+        g = np.stack([left - pg for pg, _ in parts])
+        r = np.stack([left_r - pr for _, pr in parts])
+        coef = np.repeat(feasible_coefficients(g, r, ne.nonneg), [grp.size for grp in groups], axis=0)
+        out[b] = np.sum(_block_sse(ne, gg, coef, rest))
+    return out
+
+
 def cross_validate(
     gap: np.ndarray,
     blocks: Blocks,
     designs: list[Design],
     fit_residual: np.ndarray | None = None,
     fit_weight: float = 1.0,
-    chosen: np.ndarray | None = None,
 ) -> CrossValidation:
     """Leave-one-block-out predictions of ``gap`` ``(m,)`` by a candidate with settings ``designs``.
 
@@ -305,9 +347,8 @@ def cross_validate(
     fitted on all remaining blocks and used to predict the held-out one.  The inner cross-validation leaves out :data:`INNER_FOLDS`
     contiguous groups of the remaining blocks in turn.  The inner choice
     honours the sign constraints through :func:`feasible_coefficients`
-    (nearly optimal); the outer fits solve them exactly.  ``chosen`` ``(B,)``
-    gives the setting for each held-out block instead (chosen without
-    that block elsewhere, e.g. by this candidate's own cross-validation).
+    (nearly optimal); the outer fits solve them exactly.  With the settings already chosen for each
+    held-out block, :func:`predict_at_chosen` gives the prediction alone.
     """
     nb = blocks.count
     m = gap.size
@@ -324,25 +365,10 @@ def cross_validate(
         coef = solve_coefficients(ne.gram - ne.block_gram, ne.rhs - ne.block_rhs, ne.nonneg)  # (B, k)
         outer_coef.append(coef)
         outer[s] = _block_sse(ne, gg, coef, others)
+    # inner cross-validation errors (S, B): the setting chosen for each held-out block
+    inner = np.stack([_inner_errors(ne, gg) for ne in normals]) if len(normals) > 1 else None
     for b in range(nb):
-        best = 0
-        if chosen is not None:
-            best = int(chosen[b])
-        elif len(normals) > 1:
-            inner = np.array([0.0] * len(normals))
-            rest = others[others != b]
-            for s, ne in enumerate(normals):
-                left = ne.gram - ne.block_gram[b]
-                left_r = ne.rhs - ne.block_rhs[b]
-                if ne.check.shape[1] <= WIDE:  # leave each remaining block out in turn
-                    coef = feasible_coefficients(left - ne.block_gram[rest], left_r - ne.block_rhs[rest], ne.nonneg)
-                else:
-                    groups = np.array_split(rest, min(INNER_FOLDS, rest.size))
-                    g = np.stack([left - ne.block_gram[grp].sum(axis=0) for grp in groups])
-                    r = np.stack([left_r - ne.block_rhs[grp].sum(axis=0) for grp in groups])
-                    coef = np.repeat(feasible_coefficients(g, r, ne.nonneg), [grp.size for grp in groups], axis=0)
-                inner[s] = np.sum(_block_sse(ne, gg, coef, rest))
-            best = int(np.argmin(inner))
+        best = 0 if inner is None else int(np.argmin(inner[:, b]))
         rows = blocks.index == b
         prediction[rows] = normals[best].check[rows] @ outer_coef[best][b]
         picked[b] = best
@@ -350,6 +376,26 @@ def cross_validate(
     ne = normals[s_full]
     full = solve_coefficients(ne.gram, ne.rhs, ne.nonneg)
     return CrossValidation(prediction, picked, s_full, full / ne.scale)
+
+
+def predict_at_chosen(gap: np.ndarray, blocks: Blocks, designs, chosen: np.ndarray,
+                      fit_residual: np.ndarray | None = None, fit_weight: float = 1.0) -> np.ndarray:
+    """Leave-one-block-out predictions of ``gap`` ``(m,)`` with the setting ``chosen[b]`` of ``designs``
+    for each held-out block ``b`` (chosen without that block elsewhere, e.g. by a candidate's own
+    cross-validation): :func:`cross_validate`'s outer fits, solved only for the chosen setting of each
+    block -- the same numbers, without the systems of the settings no block uses.  ``designs``: indexed
+    by setting (a list, or a mapping holding at least the chosen ones)."""
+    ind = onehot(blocks)
+    chosen = np.asarray(chosen, dtype=int)
+    prediction = np.zeros(gap.size)
+    for s in np.unique(chosen):
+        ne = _normal(designs[s], gap, ind, fit_residual, fit_weight)
+        mine = np.flatnonzero(chosen == s)
+        coef = solve_coefficients(ne.gram - ne.block_gram[mine], ne.rhs - ne.block_rhs[mine], ne.nonneg)
+        for b, c in zip(mine, coef):
+            rows = blocks.index == b
+            prediction[rows] = ne.check[rows] @ c
+    return prediction
 
 
 def coefficients_without(design: Design, gap: np.ndarray, blocks: Blocks, exclude: np.ndarray,

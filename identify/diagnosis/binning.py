@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..runs import AFTER_REVERSAL, BRANCH_NAMES, COOLING, HEATING
+from .quantiles import chi2_isf, normal_isf, t_isf
 
 #: The binned quantities and their units, in report order.
 BY = {
@@ -101,9 +102,7 @@ def bin_residuals(
     r = np.asarray(residual, dtype=float)
     grouped = [(by, _groups(by, np.asarray(features[by], dtype=float))) for by in BY if by in features]
     tests = sum(1 for _, groups in grouped for g in groups if g[3].sum() >= MIN_TESTED)
-    from scipy import stats  # imported when needed: 0.2 s of the rig command's start-up
-
-    z_crit = stats.norm.isf(ALPHA / (2 * max(tests, 1)))
+    z_crit = normal_isf(ALPHA / (2 * max(tests, 1)))
     out = []
     for by, groups in grouped:
         bins = []
@@ -119,11 +118,11 @@ def bin_residuals(
                     f = floor[mask]
                     z = abs(mean) / (np.sqrt(np.mean(f**2)) / np.sqrt(n))
                     chi = float(np.sum((rb / f) ** 2))
-                    significant = bool(z > z_crit or chi > stats.chi2.isf(ALPHA / max(tests, 1), n))
+                    significant = bool(z > z_crit or chi > chi2_isf(ALPHA / max(tests, 1), n))
                 else:
                     sd = float(rb.std(ddof=1))
                     t = abs(mean) / (sd / np.sqrt(n)) if sd > 0 else 0.0
-                    significant = bool(t > stats.t.isf(ALPHA / (2 * max(tests, 1)), n - 1))
+                    significant = bool(t > t_isf(ALPHA / (2 * max(tests, 1)), n - 1))
             bins.append(Bin(lo, hi, label, mean, rms, n, significant))
         out.append(Binning(by, units.get(BY[by], BY[by]), tuple(bins)))
     return out

@@ -58,6 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .base import BaseFit
+from .quantiles import chi2_ppf, f_ppf
 from ..runs import Run
 
 #: Fewest differences an estimate may rest on.
@@ -194,10 +195,8 @@ def fit_residual_bound(base: BaseFit, confidence: float = BOUND_CONFIDENCE) -> N
     """
     if base.dof < 1:
         return None
-    from scipy import stats  # imported when needed: 0.2 s of the rig command's start-up
-
     r = base.measured - base.fitted
-    sigma = float(np.sqrt(r @ r / stats.chi2.ppf(1.0 - confidence, base.dof)))
+    sigma = float(np.sqrt(r @ r / chi2_ppf(1.0 - confidence, base.dof)))
     return NoiseEstimate(sigma, _readings(list(base.fit_runs)), "fit_residual_bound", float(base.dof),
                          f"upper {100 * confidence:.0f} % bound from the base fit's residual over {base.dof} "
                          f"residual degrees of freedom (it holds whatever the model could not absorb)")
@@ -218,9 +217,7 @@ def combine(a: NoiseEstimate, b: NoiseEstimate) -> NoiseEstimate:
         return a if a.dof >= b.dof else b
     va, vb = _per_reading(a), _per_reading(b)
     ratio = va / vb
-    from scipy import stats  # imported when needed: 0.2 s of the rig command's start-up
-
-    lo, hi = stats.f.ppf([0.025, 0.975], a.dof, b.dof)
+    lo, hi = f_ppf([0.025, 0.975], a.dof, b.dof)
     k = a.readings or 1
     if lo <= ratio <= hi:
         pooled = (a.dof * va + b.dof * vb) / (a.dof + b.dof)

@@ -71,6 +71,8 @@ from typing import Callable
 
 import numpy as np
 
+from .quantiles import normal_isf
+
 Z_SIGNIFICANT = 3.0
 Z_SEPARATED = 2.0
 Z_GAP = 3.0
@@ -180,9 +182,7 @@ class Evidence:
 
     def interval(self, i: int, level: float = 0.95) -> tuple[float, float]:
         """Interval of candidate ``i``'s shrink at ``level`` (fixed design; bootstrap without a floor)."""
-        from scipy import stats  # imported when needed: 0.2 s of the rig command's start-up
-
-        q = stats.norm.isf((1 - level) / 2)
+        q = normal_isf((1 - level) / 2)
         base = self.mse_base
         if base <= 0:
             return (0.0, 0.0)
