@@ -209,29 +209,27 @@ def apply_recipe(o: IdentifyOptions, recipe: IdentifyRecipe | None, path: Path) 
 class IdentifyJob:
     """One file to fit, fully checked: the data, the rows to fit and where the model goes.
 
-    ``inputs`` and ``outputs`` ``(n,)`` are every applied point (outputs NaN
-    where not measured); ``rows`` the measured rows the fit uses; ``seed``
+    ``run`` is the recorded run the fit reads: every applied point (its
+    ``inputs`` and ``outputs`` ``(n,)``, outputs NaN where not measured),
+    time stamps and dwells; ``rows`` the measured rows the fit uses; ``seed``
     the seed of their random choice (``None`` when all are used);
     ``store_as`` the model name in the session, or ``None`` when the model
     is not stored; ``partial`` describes a partial session (else ``None``);
     ``label`` prefixes fitting errors (set in batches, to name the file);
     ``curves`` ``(n,)`` the curve of every point (-1: none), when the run has curves;
     ``effects`` the (unfitted) effects to fit with the density, none for equation
-    (22) alone, and ``run`` the recorded run the fit reads (time stamps, dwells,
-    every measured output; the fit uses ``rows``).
+    (22) alone.
     """
 
     path: Path
     grid: Grid
-    inputs: np.ndarray
-    outputs: np.ndarray
+    run: Run
     rows: np.ndarray
     method: str
     thermal_term: bool
     seed: int | None
     input_unit: str
     output_unit: str
-    run: Run
     store_as: str | None = None
     partial: str | None = None
     label: str | None = None
@@ -245,6 +243,16 @@ class IdentifyJob:
     #: from (:func:`apply_recipe`).
     recipe: IdentifyRecipe | None = None
     sources: dict[str, str] | None = None
+
+    @property
+    def inputs(self) -> np.ndarray:
+        """Every applied input ``(n,)`` (the run's)."""
+        return self.run.inputs
+
+    @property
+    def outputs(self) -> np.ndarray:
+        """Every output ``(n,)``, NaN where not measured (the run's)."""
+        return self.run.outputs
 
 
 def _store_as(data: Recording, o: IdentifyOptions, grid: Grid) -> str | None:
@@ -294,8 +302,7 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
     return IdentifyJob(
         path=path,
         grid=grid,
-        inputs=data.inputs,
-        outputs=data.outputs,
+        run=run,
         rows=rows,
         method=o.method,
         thermal_term=o.thermal_term,
@@ -309,7 +316,6 @@ def plan_job(path: str | Path, o: IdentifyOptions, label: str | None = None) -> 
         curves=data.curves,
         curve_selection=o.curves,
         effects=o.effects,
-        run=run,
         recorded_grid=data.grid,
         recipe=recipe,
         sources=sources,

@@ -193,7 +193,7 @@ def felt(output: np.ndarray, source: str, mu0: float, c_d: float, thermal: np.nd
 
 @dataclass(frozen=True)
 class Loop:
-    """A feedback of the output onto the hysterons' input (:attr:`Effect.feeds_back`), as the prediction's
+    """A feedback of the output onto the hysterons' input (:meth:`Effect.loop`), as the prediction's
     fixed point ``x = a + k u`` (``x^2 = a^2 + k u`` when ``drive`` is ``"power"``) needs it: gain ``k``
     (V/um or V^2/um), what drives the input (``voltage`` or ``power``), what the hysterons feel of the output
     ``u`` (``output``: all of it; ``phase``: its phase-transition part)."""
@@ -245,9 +245,6 @@ class Effect(ABC):
     inversion: ClassVar[str | None] = None
     #: (``static`` inversion) The degree of its polynomial of the set-point between breakpoints.
     static_degree: ClassVar[int] = 0
-    #: (input effects) Its transform feels the model's own output (mean-field feedback): a prediction then
-    #: solves the fixed point of :meth:`loop` point by point (:mod:`identify.effects.compose`).
-    feeds_back: ClassVar[bool] = False
 
     def __init__(self, params: dict[str, Any] | None = None) -> None:
         self.params = None if params is None else self.check_params(dict(params))
@@ -335,8 +332,9 @@ class Effect(ABC):
         return not self.per_run or run_name in (self.params or {}).get("runs", {})
 
     def loop(self) -> Loop | None:
-        """(:attr:`feeds_back`, fitted) The feedback the prediction solves for; None when there is none
-        (not fitted, or a zero gain): the transform then needs no feedback."""
+        """(input effects whose transform feels the model's own output: mean-field feedback) The feedback
+        the prediction solves for, point by point (:mod:`identify.effects.compose`); None when there is none
+        (another kind of effect, not fitted, or a zero gain): the transform then needs no feedback."""
         return None
 
     # ------------------------------------------------------------ how it is inverted (fitted)

@@ -6,7 +6,7 @@ sees the result, equation (22) gives the output with the thermal term on
 the heater voltage (or on the lagged input), the output effects add their
 contributions and the sensor effects map it to the reading.
 
-With a feedback (an effect that :attr:`~identify.effects.base.Effect.feeds_back`:
+With a feedback (an effect with a :meth:`~identify.effects.base.Effect.loop`:
 ``interaction``) the hysterons' input depends on the output, which
 depends on the memory state the input sets.  :func:`predict_run` then
 steps the memory one point at a time and solves the fixed point
@@ -63,7 +63,7 @@ def hysteron_inputs(effects: Iterable[Effect], run: Run, feedback: np.ndarray | 
         if e.stage != INPUT or not e.fitted:
             continue
         fb = feedback
-        loop = e.loop() if e.feeds_back else None
+        loop = e.loop()
         if loop is not None and feedback is not None and model is not None:
             fb = loop.felt(feedback, model.mu0, model.c_d, thermal)
         x = e.transform(run, x, fb)
@@ -109,7 +109,7 @@ def deflection(model: HostModel, run: Run, effects: Iterable[Effect] | None = No
     (with ``interaction``); None solves the fixed point (prediction)."""
     effects = list(model.effects if effects is None else effects)
     static = output_contributions(effects, run, which="static")
-    inter = next((e for e in effects if e.feeds_back and e.loop() is not None), None)
+    inter = next((e for e in effects if e.loop() is not None), None)
     if inter is None or feedback is not None:
         x, thermal = hysteron_inputs(effects, run, feedback, model)
         u = preisach_output(model, x, thermal)

@@ -50,7 +50,6 @@ class Interaction(Effect):
     summary = "mean-field interaction: the hysterons feel the output as well as the input (x = v + k u)"
     stage = INPUT
     inversion = "feedback"
-    feeds_back = True
 
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         require_params(params, ("k",), self.name)
