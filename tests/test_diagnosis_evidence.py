@@ -9,7 +9,8 @@ from identify import Grid, damped_oscillation
 from identify.diagnosis import Run, check_design, diagnose
 from identify.diagnosis.base import fit_base
 from identify.diagnosis.noise import fit_residual_bound
-from identify.diagnosis.resolution import Resolution, distinct_inputs, refine_density
+from identify.diagnosis.resolution import Resolution, distinct_inputs, joint_refit_refused, refine_density
+from identify.effects import make_effect
 from identify.diagnosis.verdict import MAX_RIVALS, Evidence
 
 SIGMA = 0.005
@@ -146,6 +147,38 @@ def test_a_run_of_many_distinct_inputs_refits_the_finer_grid_and_keeps_that_mode
     # the kept model is what `rig identify --levels N` stores: fitted on the identification run alone
     assert d.kept is not None and d.kept.error is None and d.kept.params["resolution"]["levels"] == score.params["levels"]
     assert d.kept.shrink > 0.5
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_a_finer_grid_and_a_reversible_term_are_both_named_from_their_joint_refit(seed):
+    # the device: an L = 18 density (the ladder's 2x of L = 9) plus a decreasing reversible term, which no
+    # non-negative density can mimic.  Paired with the L' = 18 model fitted without it, the reversible
+    # columns recover little (the finer grid took part of the term into its density: old behaviour, one
+    # name); the second step is the model rig identify --levels 18 --with reversible stores.
+    truth = _fine_device(18)
+    grid = Grid(9, 0.0, 6.0)
+    rng = np.random.default_rng(5 + seed)
+    fit_inputs = np.round(rng.uniform(0.0, 6.0, 400), 4)
+    check = check_design(0.0, 6.0, 160, seed=4 + seed)
+
+    def reading(v):
+        return truth.predict(v) - 0.1 * np.tanh(2.0 * (v - 3.0)) + SIGMA * rng.normal(size=v.size)
+
+    fit = Run("fit", fit_inputs, reading(fit_inputs), np.cumsum(np.full(400, 20.0)), np.full(400, 20.0), 4)
+    chk = Run("check", check.inputs, reading(check.inputs), np.cumsum(check.dwell_s), check.dwell_s, 4)
+    d = diagnose([fit], [chk], grid)
+    assert d.verdict.status == "explained" and d.verdict.effects == ("resolution", "reversible"), d.verdict
+    assert [s["effect"] for s in d.verdict.steps] == ["resolution", "reversible"]
+    # what the second step scored is the model that is kept: both identified together on the fit run
+    assert d.kept is not None and d.kept.error is None and d.kept.effects == ("resolution", "reversible")
+    assert d.kept.params["resolution"]["levels"] == 18 and d.kept.shrink > d.score("resolution").shrink
+
+
+def test_only_an_effect_fitted_in_one_solve_is_refitted_jointly_with_a_finer_grid():
+    assert joint_refit_refused(make_effect("reversible")) is None
+    for name in ("creep", "sensor_nonlinearity", "interaction", "thermal_lag"):  # searched or re-linearised
+        assert "not one solve" in joint_refit_refused(make_effect(name)), name
+    assert "per run" in joint_refit_refused(make_effect("baseline_drift"))
 
 
 def test_resolution_is_not_assessed_when_no_finer_grid_can_be_identified_or_estimated():

@@ -28,7 +28,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..effects import INPUT, Columns, Context, EffectNotIdentifiable, make_effect
-from ..effects.joint import context_of, fit_with_effects
+from ..effects.joint import JointFit, context_of, fit_with_effects
 from ..errors import IdentifyError, MethodNotApplicable
 from ..grid import Grid
 from ..runs import Run
@@ -38,7 +38,7 @@ from .base import BaseFit, fit_base, uncertain_directions
 from .binning import Binning, bin_residuals
 from .candidates import Candidate, library
 from .noise import NoiseEstimate, estimate_noise, fit_residual_bound, floor_per_point
-from .resolution import Resolution
+from .resolution import MODES as RESOLUTION_MODES, Resolution
 from ..cross_validation import (Blocks, Design, bootstrap_mse, coefficients_without, cross_validate, make_blocks,
                                 onehot, predict_at_chosen)
 from .verdict import Evidence, Verdict
@@ -569,8 +569,8 @@ def _assess(cand: Candidate, grid_settings: list[dict[str, float]], cols_list: l
                      cols_list, best, cv.chosen)
 
 
-def _second_effect(assessed: list[_Assessed], base: BaseFit, scored: _Scored, reference: _Reference,
-                   fit_weight: float) -> tuple[str | None, np.ndarray | None]:
+def _second_effect(assessed: list[_Assessed], base: BaseFit, ctx: Context, scored: _Scored,
+                   reference: _Reference, fit_weight: float) -> tuple[str | None, np.ndarray | None]:
     """A second effect: every other candidate that improves the held-out error on its own (a second must
     stand on its own too, see the verdict) fitted together with the one that improves most.  Returns that
     one's name and the held-out gap each pair leaves, ``(c, m)`` (um; NaN for the candidates not paired),
@@ -587,14 +587,33 @@ def _second_effect(assessed: list[_Assessed], base: BaseFit, scored: _Scored, re
         if a.cand.name == best or float(np.mean(a.after**2)) >= mse_reference:
             continue
         second = by_name[a.cand.name]
+        first_part, first_cols = _first_of_pair(first, second, base, ctx, scored)
         # the second keeps the setting its own cross-validation chose for each held-out block (without
         # that block): a nested search over both settings cost more than all the single candidates
-        designs = {s: _pair_design(first.parts[first.full_setting], first.cols[first.full_setting],
-                                   second.parts[s], second.cols[s], reference.recal)
+        designs = {s: _pair_design(first_part, first_cols, second.parts[s], second.cols[s], reference.recal)
                    for s in np.unique(second.chosen)}
         pairs_after[i] = gap - predict_at_chosen(gap, scored.blocks, designs, second.chosen, base.residual,
                                                  fit_weight)
     return best, pairs_after
+
+
+def _first_of_pair(first: _Assessed, second: _Assessed, base: BaseFit, ctx: Context, scored: _Scored
+                   ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], Columns]:
+    """The first candidate's part of a pair with ``second``: its own columns at its chosen setting -- or,
+    when the first is ``resolution`` refitted on a finer grid ``L'``, the model ``rig identify --levels L'
+    --with SECOND`` stores (both identified together on the identification runs), as one column.  A finer
+    grid fitted without the second effect has already taken part of it into its density (a reversible
+    slope as cells along the diagonal), and a coefficient on that grid's column cannot give it back."""
+    own = first.parts[first.full_setting], first.cols[first.full_setting]
+    if not isinstance(first.cand, Resolution) or isinstance(second.cand, Resolution):
+        return own
+    setting = first.setting
+    if RESOLUTION_MODES[int(setting.get("mode", -1))] != "refit":
+        return own
+    cols = first.cand.joint_columns(ctx, int(setting["levels"]), second.cand)
+    if cols is None:
+        return own
+    return _effective(base, scored, cols), cols
 
 
 def _bootstrap(assessed: list[_Assessed], reference: _Reference, blocks: Blocks, settings: DiagnosisSettings
@@ -736,7 +755,7 @@ def _diagnose(fit_runs: list[Run] | tuple[Run, ...], check_runs: list[Run] | tup
     # which: the candidates on held-out blocks, alone and a second beside the best; where: the residual binned
     assessed, not_assessed = _held_out_candidates(cands, base, ctx, scored, reference, floor.rms_um, fit_weight,
                                                   output_unit)
-    pair_with, pairs_after = _second_effect(assessed, base, scored, reference, fit_weight)
+    pair_with, pairs_after = _second_effect(assessed, base, ctx, scored, reference, fit_weight)
     boot = _bootstrap(assessed, reference, scored.blocks, settings)
     where = bin_residuals(scored.features, -reference.residual, floor.per_point if floor.kind == "measured" else None,
                           unit_names)
@@ -794,8 +813,13 @@ def _kept(result: Diagnosis, grid: Grid, fit_runs: tuple[Run, ...], check_runs: 
                                    f"the identification run on {levels} levels (rig acquire --levels {levels}) "
                                    f"and identify it there")
         grid = Grid(levels, grid.v_min, grid.v_max)
-    kept = keep_model(grid, fit_runs, check_runs, rows, tuple(n for n in named if n != Resolution.name), settings,
-                      thermal_term, result.fit_only_rmse_um)
+    others = tuple(n for n in named if n != Resolution.name)
+    joint = None
+    if score is not None and len(others) == 1 and isinstance(score.fitted, Resolution):
+        made = score.fitted.refit_with(levels, make_effect(others[0]))  # the second step's fit, when it was one
+        joint = made if isinstance(made, JointFit) else None
+    kept = keep_model(grid, fit_runs, check_runs, rows, others, settings, thermal_term, result.fit_only_rmse_um,
+                      joint)
     if score is None:
         return kept
     return replace(kept, effects=named, params={Resolution.name: {"levels": grid.levels}, **kept.params})
@@ -819,13 +843,15 @@ def verdict_effects(verdict: Verdict) -> tuple[str, ...]:
 
 
 def keep_model(grid: Grid, fit_runs: tuple[Run, ...], check_runs: tuple[Run, ...], rows: tuple[np.ndarray, ...],
-               names: tuple[str, ...], settings: DiagnosisSettings, thermal_term: bool, base_rmse: float) -> KeptModel:
-    """:class:`KeptModel` for ``names``: the joint fit on the identification runs, scored on ``rows`` of
-    each check run."""
+               names: tuple[str, ...], settings: DiagnosisSettings, thermal_term: bool, base_rmse: float,
+               joint: JointFit | None = None) -> KeptModel:
+    """:class:`KeptModel` for ``names``: the joint fit on the identification runs (``joint`` when it was
+    already made, e.g. by the resolution candidate's second step), scored on ``rows`` of each check run."""
     start = time.perf_counter()
     try:
-        joint = fit_with_effects(grid, fit_runs, settings.method, [make_effect(n) for n in names],
-                                 thermal_term=thermal_term, settings=settings.method_settings)
+        if joint is None:
+            joint = fit_with_effects(grid, fit_runs, settings.method, [make_effect(n) for n in names],
+                                     thermal_term=thermal_term, settings=settings.method_settings)
     except (EffectNotIdentifiable, MethodNotApplicable) as exc:
         return KeptModel(names, None, None, error=str(exc))
     residuals = []
