@@ -51,6 +51,7 @@ terms per sample over any input sequence, however long its memory.
 
 from __future__ import annotations
 
+import bisect
 import math
 from functools import lru_cache
 
@@ -224,33 +225,57 @@ def everett_terms(curve: MemoryCurve, xs: np.ndarray) -> tuple[np.ndarray, np.nd
     ``sample == n``.  ``T`` is at most about ``4 n`` plus twice the initial
     corners.
     """
+    # MemoryCurve.apply's rules inlined (about four times faster than a call per input): a rise to x
+    # wipes the corners with a <= x and appends (x, x); a fall to x sets b = x on the first corner with
+    # b >= x (b rises along the corners: a bisection) and wipes the later ones, or wipes it at x = 0
+    a_list, b_list = list(curve._a), list(curve._b)
+    position = curve.position
     sample: list[int] = []
     sign: list[float] = []
     tx: list[float] = []
     ty: list[float] = []
-    seen_a: list[float] = []
-    seen_b: list[float] = []
-
-    def emit(n: int, s: float, a_list: list[float], b_list: list[float], prev: float) -> None:
-        for a, b in zip(a_list, b_list):
-            sample.extend((n, n))
-            sign.extend((s, -s))
-            tx.extend((a, a))
-            ty.extend((b, prev))
-            prev = b
-
-    first_a, first_b = curve.tail(0)
-    emit(0, 1.0, first_a, first_b, 0.0)
-    seen_a[:], seen_b[:] = first_a, first_b
-    for n, x in enumerate(np.asarray(xs, dtype=float).tolist()):
-        k = curve.apply(x)
-        new_a, new_b = curve.tail(k)
-        if k == len(seen_a) and not new_a:
+    prev = 0.0
+    for a, b in zip(a_list, b_list):  # the initial corners, counted at sample 0
+        sample += (0, 0)
+        sign += (1.0, -1.0)
+        tx += (a, a)
+        ty += (b, prev)
+        prev = b
+    levels = float(curve.levels)
+    for n, x in enumerate(np.clip(np.asarray(xs, dtype=float), 0.0, levels).tolist()):
+        if x > position:
+            k = len(a_list)
+            while k and a_list[k - 1] <= x:
+                k -= 1
+            new_a = x
+        elif x < position:
+            k = bisect.bisect_left(b_list, x)
+            if k == len(b_list):
+                position = x
+                continue
+            new_a = a_list[k] if x > 0.0 else None
+        else:
             continue
-        prev = seen_b[k - 1] if k else 0.0
-        emit(n, -1.0, seen_a[k:], seen_b[k:], prev)
-        emit(n, 1.0, new_a, new_b, prev)
-        seen_a[k:], seen_b[k:] = new_a, new_b
+        position = x
+        prev = b_list[k - 1] if k else 0.0
+        p = prev
+        for i in range(k, len(a_list)):  # the old tail goes
+            a, b = a_list[i], b_list[i]
+            sample += (n, n)
+            sign += (-1.0, 1.0)
+            tx += (a, a)
+            ty += (b, p)
+            p = b
+        del a_list[k:], b_list[k:]
+        if new_a is not None:  # the new corner comes
+            a_list.append(new_a)
+            b_list.append(x)
+            sample += (n, n)
+            sign += (1.0, -1.0)
+            tx += (new_a, new_a)
+            ty += (x, prev)
+    curve._a[:], curve._b[:] = a_list, b_list
+    curve.position = position
     return (
         np.asarray(sample, dtype=np.int64),
         np.asarray(sign, dtype=float),
