@@ -114,3 +114,33 @@ def test_a_design_adopts_only_an_operator_of_its_own_inputs():
         Design(grid, v, thermal_term=True).adopt(op)
     with pytest.raises(ValueError, match="another design"):
         Design(grid, v, thermal_term=False, initial="positive").adopt(op)
+
+
+@pytest.mark.parametrize("levels", [1, 3, 6])
+def test_the_vectorised_replay_emits_the_loops_terms_in_its_order(levels):
+    """Ties (a fall to a corner's own b remakes it), saturation, repeated inputs, both initial states and a
+    history: the same terms, in the same order, and the same curve at the end as one input at a time."""
+    from identify.everett import _everett_terms_loop, _everett_terms_vectorised
+    from identify.regressor import initial_curve
+
+    rng = np.random.default_rng(levels)
+    grid = Grid(levels, 0.0, float(levels))
+    for trial in range(400):
+        n = int(rng.integers(0, 40))
+        kind = trial % 4
+        if kind == 0:
+            xs = rng.uniform(-1, levels + 1, n)
+        elif kind == 1:
+            xs = rng.integers(-1, levels + 2, n).astype(float)
+        elif kind == 2:
+            xs = np.round(rng.uniform(-0.5, levels + 0.5, n) * 2) / 2
+        else:
+            xs = np.cumsum(rng.normal(size=n)) + levels / 2
+        initial = "negative" if trial % 3 else "positive"
+        history = None if trial % 5 else rng.uniform(-1, levels + 1, int(rng.integers(0, 6)))
+        loop, vectorised = initial_curve(grid, initial, history), initial_curve(grid, initial, history)
+        expected = _everett_terms_loop(loop, xs)
+        got = _everett_terms_vectorised(vectorised, xs)
+        for e, g in zip(expected, got):
+            np.testing.assert_array_equal(g, e)
+        assert vectorised == loop and vectorised.position == loop.position
