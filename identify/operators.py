@@ -173,30 +173,27 @@ class RegressorOperator(_MatmatOperator):
         rows = np.asarray(rows, dtype=np.int64)
         n, c = self.increments.shape
         e = self._increments_csc
-        starts, counts, cols, values = [], [], [], []
-        for j in range(c):
-            lo, hi = e.indptr[j], e.indptr[j + 1]
-            if lo == hi:
-                continue
-            t = e.indices[lo:hi]
-            d = e.data[lo:hi]
-            value = np.cumsum(d)
-            first = np.searchsorted(rows, t)
-            last = np.append(first[1:], rows.size)
-            keep = (last > first) & (np.abs(value) > STATE_ZERO * np.max(np.abs(d)))
-            starts.append(first[keep])
-            counts.append(last[keep] - first[keep])
-            values.append(value[keep])
-            cols.append(np.full(int(np.count_nonzero(keep)), j, dtype=np.int64))
-        if not starts:
+        if e.nnz == 0:
             return scipy.sparse.csr_array((rows.size, c))
-        starts, counts = np.concatenate(starts), np.concatenate(counts)
+        ptr = e.indptr
+        value = np.empty(e.nnz)
+        for j in np.flatnonzero(ptr[1:] > ptr[:-1]):  # a running sum down each column, column by column
+            np.cumsum(e.data[ptr[j]:ptr[j + 1]], out=value[ptr[j]:ptr[j + 1]])
+        column = np.repeat(np.arange(c), np.diff(ptr))
+        largest = np.zeros(c)
+        np.maximum.at(largest, column, np.abs(e.data))
+        # an increment's value holds from its row to the column's next increment: the measured rows between
+        first = np.searchsorted(rows, e.indices)
+        last = np.empty_like(first)
+        last[:-1] = first[1:]
+        last[ptr[1:][ptr[1:] > ptr[:-1]] - 1] = rows.size
+        keep = (last > first) & (np.abs(value) > STATE_ZERO * largest[column])
+        starts, counts = first[keep], (last - first)[keep]
         total = int(counts.sum())
         offsets = np.repeat(np.cumsum(counts) - counts, counts)
         row = np.repeat(starts, counts) + (np.arange(total) - offsets)
-        return scipy.sparse.csr_array(
-            (np.repeat(np.concatenate(values), counts), (row, np.repeat(np.concatenate(cols), counts))),
-            shape=(rows.size, c))
+        return scipy.sparse.csr_array((np.repeat(value[keep], counts), (row, np.repeat(column[keep], counts))),
+                                      shape=(rows.size, c))
 
     def cell_gram(self, rows: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
         """The cells' block of ``(A S)^T W (A S)``, ``(n_cells, n_cells)``, for the sorted rows ``rows``
