@@ -172,16 +172,28 @@ def everett_weights(levels: int, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarr
     fx = x - i
     fy = y - j
     c = fy * (np.minimum(x - j, 1.0) - fy)  # the diagonal triangle's quadratic area
-    cols = _table_columns(levels)
-    column = np.concatenate(
-        [cols[i, j], cols[i + 1, j], cols[i, j + 1], cols[i + 1, j + 1], cols[j + 1, j + 1], cols[j + 1, j]]
-    )
-    weight = np.concatenate(
-        [(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy, c, -c]
-    )
-    term = np.tile(np.arange(x.size), 6)
-    keep = (column >= 0) & (weight != 0)
-    return term[keep], column[keep], weight[keep]
+    cols = _table_columns(levels).ravel()  # flat: a third of the time of two-index lookups
+    stride = levels + 1
+    at = i * stride + j
+    diagonal = (j + 1) * stride + j
+    T = x.size
+    column = np.empty((6, T), dtype=np.int64)
+    np.take(cols, at, out=column[0])
+    np.take(cols, at + stride, out=column[1])
+    np.take(cols, at + 1, out=column[2])
+    np.take(cols, at + stride + 1, out=column[3])
+    np.take(cols, diagonal + 1, out=column[4])
+    np.take(cols, diagonal, out=column[5])
+    gx, gy = 1 - fx, 1 - fy
+    weight = np.empty((6, T))
+    np.multiply(gx, gy, out=weight[0])
+    np.multiply(fx, gy, out=weight[1])
+    np.multiply(gx, fy, out=weight[2])
+    np.multiply(fx, fy, out=weight[3])
+    weight[4] = c
+    np.negative(c, out=weight[5])
+    keep = np.flatnonzero((column.ravel() >= 0) & (weight.ravel() != 0))
+    return keep % T if T else keep, column.ravel().take(keep), weight.ravel().take(keep)
 
 
 def everett_table(grid: Grid, density: np.ndarray) -> np.ndarray:
@@ -414,5 +426,5 @@ def everett_increments(grid: Grid, xs: np.ndarray, curve: MemoryCurve) -> scipy.
     sample, sign, tx, ty = everett_terms(curve, xs)
     term, column, weight = everett_weights(grid.levels, tx, ty)
     return scipy.sparse.csr_array(
-        (weight * sign[term], (sample[term], column)), shape=(n, grid.n_cells)
+        (weight * sign.take(term), (sample.take(term), column)), shape=(n, grid.n_cells)
     )
