@@ -30,6 +30,11 @@ from .memory import InitialState
 from .regressor import check_inputs, initial_curve, n_parameters
 
 
+#: A running sum of ``E``'s column within this many times its largest increment is a cancelled term (zero):
+#: the rounding of a sum of a few thousand increments is far below it, a genuine state entry far above.
+STATE_ZERO = 1e-11
+
+
 def _reverse_cumsum(r: np.ndarray) -> np.ndarray:
     return np.cumsum(r[::-1], axis=0)[::-1]
 
@@ -47,6 +52,37 @@ class _MatmatOperator(LinearOperator):
     def _adjoint(self) -> LinearOperator:
         return LinearOperator(self.shape[::-1], matvec=self._rmatvec, rmatvec=self._matvec,
                               matmat=self._rmatmat, rmatmat=self._matmat, dtype=self.dtype)
+
+    def gram(self, rows: np.ndarray) -> np.ndarray:
+        """``(A S)^T (A S)`` for the sorted measured rows ``rows`` ``(M,)``: ``(P, P)``, without ``A S``.
+
+        The cells' block is the base regressor's :meth:`RegressorOperator.cell_gram` (the memory states
+        at the measured rows are sparse); the few other columns (``mu0``, ``c_d``, an effect's terms, the
+        penalty rows) by one product each way.  ``O(n + M s^2 + L^4)`` for ``s`` non-zeros per state,
+        where the block products took ``O(n P)``.
+        """
+        rows = np.asarray(rows, dtype=np.int64)
+        n_rows, P = self.shape
+        cells, base, scale = self._cell_part()
+        data = rows[rows < base.shape[0]]
+        weights = None if scale is None else scale[data] ** 2
+        out = np.empty((P, P))
+        out[np.ix_(cells, cells)] = base.cell_gram(data, weights)
+        other = np.setdiff1d(np.arange(P), cells)
+        if other.size:
+            unit = np.zeros((P, other.size))
+            unit[other, np.arange(other.size)] = 1.0
+            mask = np.zeros(n_rows)
+            mask[rows] = 1.0
+            block = self._rmatmat(self._matmat(unit) * mask[:, None])
+            out[:, other] = block
+            out[other, :] = block.T
+        return out
+
+    def _cell_part(self) -> tuple[np.ndarray, "RegressorOperator", np.ndarray | None]:
+        """Where the cells sit in ``w``, the :class:`RegressorOperator` they belong to, and the rows'
+        scale (``None``: 1)."""
+        raise NotImplementedError
 
     def rows(self, rows: np.ndarray) -> LinearOperator:
         """``A S``: the operator restricted to the rows ``rows``, shape ``(M, P)``."""
@@ -121,6 +157,72 @@ class RegressorOperator(_MatmatOperator):
         if self.thermal_term:
             tail.append((self.inputs @ r)[None])
         return np.concatenate([prefix_sums_adjoint(self.grid, g), *tail])
+
+    # -------------------------------------------------------------- Gram matrix
+    def _cell_part(self) -> tuple[np.ndarray, "RegressorOperator", np.ndarray | None]:
+        return np.arange(self.grid.n_cells), self, None
+
+    def states(self, rows: np.ndarray) -> scipy.sparse.csr_array:
+        """``Phi`` at the sorted rows ``rows`` ``(M,)``: ``(M, n_cells)`` on the prefix table, sparse.
+
+        Row ``m`` is ``sum_{t <= rows[m]} E[t]`` -- the memory state there, a few terms per corner
+        of the memory curve -- accumulated column by column over ``E``'s non-zeros (``O(nnz(E))``).
+        A running sum within :data:`STATE_ZERO` of the column's largest increment is a term that
+        was removed (the rounding of its cancellation) and is left out.
+        """
+        rows = np.asarray(rows, dtype=np.int64)
+        n, c = self.increments.shape
+        e = self._increments_csc
+        if e.nnz == 0:
+            return scipy.sparse.csr_array((rows.size, c))
+        ptr = e.indptr
+        value = np.empty(e.nnz)
+        for j in np.flatnonzero(ptr[1:] > ptr[:-1]):  # a running sum down each column, column by column
+            np.cumsum(e.data[ptr[j]:ptr[j + 1]], out=value[ptr[j]:ptr[j + 1]])
+        column = np.repeat(np.arange(c), np.diff(ptr))
+        largest = np.zeros(c)
+        np.maximum.at(largest, column, np.abs(e.data))
+        # an increment's value holds from its row to the column's next increment: the measured rows between
+        first = np.searchsorted(rows, e.indices)
+        last = np.empty_like(first)
+        last[:-1] = first[1:]
+        last[ptr[1:][ptr[1:] > ptr[:-1]] - 1] = rows.size
+        keep = (last > first) & (np.abs(value) > STATE_ZERO * largest[column])
+        starts, counts = first[keep], (last - first)[keep]
+        total = int(counts.sum())
+        offsets = np.repeat(np.cumsum(counts) - counts, counts)
+        row = np.repeat(starts, counts) + (np.arange(total) - offsets)
+        return scipy.sparse.csr_array((np.repeat(value[keep], counts), (row, np.repeat(column[keep], counts))),
+                                      shape=(rows.size, c))
+
+    def cell_gram(self, rows: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """The cells' block of ``(A S)^T W (A S)``, ``(n_cells, n_cells)``, for the sorted rows ``rows``
+        and row weights ``W = diag(weights)`` (default 1).
+
+        The cells' part of row ``t`` of ``S`` is ``(2 Phi_t - e_total) Pi`` (``Pi``: the prefix sums), so
+        the block is ``Pi^T (4 Phi^T W Phi - 2 (s e^T + e s^T) + (sum W) e e^T) Pi`` with ``s = Phi^T W 1``:
+        a sparse product over the few non-zeros of each state (:meth:`states`), then the prefix sums'
+        adjoint on both sides (``O(L^4)``).
+        """
+        rows = np.asarray(rows, dtype=np.int64)
+        phi = self.states(rows)
+        w = np.ones(rows.size) if weights is None else np.asarray(weights, dtype=float)
+        weighted = scipy.sparse.csr_array(phi.multiply(w[:, None]))
+        inner = (phi.T @ weighted).toarray() * 4.0
+        s = np.asarray(weighted.sum(axis=0)).ravel()
+        t = self._total
+        inner[t, :] -= 2.0 * s
+        inner[:, t] -= 2.0 * s
+        inner[t, t] += float(w.sum())
+        half = prefix_sums_adjoint(self.grid, inner)
+        return prefix_sums_adjoint(self.grid, np.ascontiguousarray(half.T)).T
+
+    @cached_property
+    def _increments_csc(self) -> scipy.sparse.csc_array:
+        e = scipy.sparse.csc_array(self.increments)
+        e.sum_duplicates()
+        e.sort_indices()
+        return e
 
     # -------------------------------------------------------------- views
     def column_norms(self) -> np.ndarray:
@@ -257,6 +359,10 @@ class AugmentedOperator(_MatmatOperator):
         out[self.extra_index] = self.extra.T @ r[:n] + self.penalty.T @ r[n:]
         return out
 
+    def _cell_part(self) -> tuple[np.ndarray, RegressorOperator, np.ndarray | None]:
+        cells, base, scale = self.base._cell_part()
+        return self.base_index[cells], base, scale
+
     def dense_rows(self, rows: np.ndarray | slice | None = None) -> np.ndarray:
         """Rows of the dense ``[S, C]`` (then the penalty rows) in the parameter order above, ``(len(rows), P + k)``."""
         picked = np.arange(self.shape[0])[rows if rows is not None else slice(None)]
@@ -304,6 +410,10 @@ class RowScaledOperator(_MatmatOperator):
 
     def _rmatmat(self, r: np.ndarray) -> np.ndarray:
         return self.base._rmatmat(self.scale[:, None] * np.asarray(r, dtype=float))
+
+    def _cell_part(self) -> tuple[np.ndarray, RegressorOperator, np.ndarray | None]:
+        cells, base, scale = self.base._cell_part()
+        return cells, base, self.scale if scale is None else self.scale * scale
 
     def dense_rows(self, rows: np.ndarray | slice | None = None) -> np.ndarray:
         picked = np.arange(self.shape[0])[rows if rows is not None else slice(None)]

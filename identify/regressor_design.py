@@ -57,7 +57,7 @@ from .errors import IdentifyError, MethodNotApplicable
 from .grid import Grid
 from .memory import InitialState
 from .operators import RegressorOperator
-from .regressor import check_inputs, n_parameters
+from .regressor import check_inputs, initial_curve, n_parameters
 from .square import SquareSolver
 
 #: Reciprocal condition number (1-norm) below which a square design counts as singular.
@@ -159,6 +159,18 @@ class Design:
     def operator(self) -> RegressorOperator:
         """``S`` as a matrix-free operator, ``(n, P)`` (:mod:`identify.operators`), built once."""
         return RegressorOperator(self.grid, self.inputs, self.thermal_term, self.initial, self.history)
+
+    def adopt(self, operator: RegressorOperator) -> "Design":
+        """Take ``operator``, built elsewhere for these very inputs, as :attr:`operator` (unless one is
+        built already); returns ``self``.  Raises :class:`ValueError` for an operator of another design."""
+        if "operator" not in self.__dict__:
+            same = (operator.grid == self.grid and operator.thermal_term == self.thermal_term
+                    and np.array_equal(operator.inputs, self.inputs)
+                    and operator.start == initial_curve(self.grid, self.initial, self.history))
+            if not same:
+                raise ValueError("the operator was built for another design")
+            self.__dict__["operator"] = operator
+        return self
 
     @cached_property
     def _square(self) -> SquareSolver | str:

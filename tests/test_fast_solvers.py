@@ -168,6 +168,7 @@ def test_least_squares_beyond_the_dense_budget_runs_on_the_operator(monkeypatch)
     from identify.operators import RegressorOperator
 
     monkeypatch.setattr(nnls, "DENSE_LH_ENTRIES", 0)
+    monkeypatch.setattr(nnls, "GRAM_LH_ENTRIES", 0)
     monkeypatch.setattr(RegressorOperator, "dense_rows", None)
     problem, _ = noisy_problem(6, 0.5, 0)
     fit = make_method("ls").fit(problem)

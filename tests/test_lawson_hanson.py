@@ -65,16 +65,20 @@ def test_the_passive_factor_respects_its_memory_budget():
         dense(a, rng.normal(size=50), max_bytes=8 * 50 * 10)
 
 
+@pytest.mark.parametrize("path", ["operator", "gram factor lh"])
 @pytest.mark.parametrize("levels,points", [(8, 400), (12, 200)])
-def test_operator_path_matches_the_dense_reference_on_random_inputs(monkeypatch, levels, points):
-    """Off-wall random inputs with more rows than parameters: no ties, one path."""
+def test_operator_path_matches_the_dense_reference_on_random_inputs(monkeypatch, levels, points, path):
+    """Off-wall random inputs with more rows than parameters: no ties, one path -- on the operator and on
+    the Gram factor alike."""
     monkeypatch.setattr(nnls, "DENSE_LH_ENTRIES", 0)
+    if path == "operator":
+        monkeypatch.setattr(nnls, "GRAM_LH_ENTRIES", 0)
     truth = vo2_actuator(levels)
     v = random_input(truth.grid, points, seed=3)
     y = truth.predict(v) + np.random.default_rng(3).uniform(-0.05, 0.05, v.size)
     problem = Problem.build(truth.grid, v, y)
     fast = make_method("ls").fit(problem)
-    assert fast.info_["path"] == "operator"
+    assert fast.info_["path"] == path
     ref = make_method("ls", solver="dense").fit(problem)
     np.testing.assert_allclose(fast.parameters_, ref.parameters_, rtol=0, atol=1e-7 * np.abs(ref.parameters_).max())
 
@@ -82,6 +86,7 @@ def test_operator_path_matches_the_dense_reference_on_random_inputs(monkeypatch,
 def test_operator_path_on_the_damped_oscillation_is_a_basic_minimiser(monkeypatch):
     """With ties (M < P on the walls) the basic solution may differ from scipy's, the minimum may not."""
     monkeypatch.setattr(nnls, "DENSE_LH_ENTRIES", 0)
+    monkeypatch.setattr(nnls, "GRAM_LH_ENTRIES", 0)
     monkeypatch.setattr(RegressorOperator, "dense_rows", None)  # the operator path builds no block
     truth = vo2_actuator(12)
     v = damped_oscillation(truth.grid, thermal_term=True)

@@ -127,7 +127,8 @@ def test_the_study_fits_every_trial_on_one_design(monkeypatch):
 
 
 def test_a_joint_effect_fit_keeps_one_design_across_its_solves(monkeypatch):
-    """The Gauss--Newton solves of identify.effects.joint fit on the same hysteron inputs: one operator."""
+    """The Gauss--Newton solves of identify.effects.joint fit on the same hysteron inputs: one operator, the
+    fit's own evaluator's, which the solves' designs adopt."""
     from identify import PreisachModel
     from identify.effects import make_effect
     from identify.effects.joint import fit_with_effects
@@ -135,12 +136,13 @@ def test_a_joint_effect_fit_keeps_one_design_across_its_solves(monkeypatch):
 
     built = []
 
-    class Counted(RegressorOperator):  # the designs' operators (the fit's own evaluator builds one more)
+    class Counted(RegressorOperator):  # the designs' operators and the fit's evaluator's
         def __init__(self, *args, **kwargs):
             built.append(1)
             super().__init__(*args, **kwargs)
 
     monkeypatch.setattr(identify.regressor_design, "RegressorOperator", Counted)
+    monkeypatch.setattr(identify.effects.joint, "RegressorOperator", Counted)
     grid = Grid(5, 0.0, 4.0)
     rng = np.random.default_rng(3)
     walk = np.cumsum(rng.normal(0.0, 0.7, 200)) % 8.0

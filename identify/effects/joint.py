@@ -296,7 +296,8 @@ class _Fitter:
             extra, order, scale, k_nonneg, penalty, target = None, np.zeros(0, int), np.zeros(0), 0, None, None
         design = Design(self.grid, x, thermal_term=False)
         if design != self.design:
-            self.design = design
+            # the hysterons' inputs of a context just evaluated: their operator is in the cache
+            self.design = design.adopt(self.hysteresis.operator(x))
         problem = Problem.on(self.design, outputs, st.rows, extra=extra, extra_nonneg=k_nonneg,
                              row_scale=row_scale, penalty=penalty, penalty_target=target)
         estimator = make_method(self.method, **self.method_settings)

@@ -140,6 +140,7 @@ def lawson_hanson(
     tol: float = 0.0,
     max_iter: int | None = None,
     max_bytes: float = 2**30,
+    column: Callable[[int], np.ndarray] | None = None,
 ) -> LawsonHansonResult:
     """``argmin ||X x - b||_2`` over ``x >= 0`` along Lawson-Hanson's path.
 
@@ -153,6 +154,7 @@ def lawson_hanson(
         errors of ``X^T r`` keep noise from driving extra steps).
     max_iter: inner iterations before giving up (default ``3 n``, as scipy).
     max_bytes: memory budget of ``Q`` (``8 m k`` bytes for ``k`` passive columns).
+    column: ``j -> X e_j`` ``(m,)`` where that is cheaper than ``matvec`` of a unit vector (a dense ``X``).
 
     Raises :class:`IdentifyError` when ``max_iter`` is reached or ``Q``
     would outgrow ``max_bytes``.
@@ -175,10 +177,13 @@ def lawson_hanson(
                 return LawsonHansonResult(x, order[:k].copy(), entered, removed, rejected)
             pos = int(np.argmax(wz >= wz[pos] * (1.0 - TIE)))
             j = int(order[k + pos])
-            unit[j] = 1.0
-            column = np.asarray(matvec(unit), dtype=float).ravel()
-            unit[j] = 0.0
-            coef, rest = qr.project(column)
+            if column is None:
+                unit[j] = 1.0
+                col = np.asarray(matvec(unit), dtype=float).ravel()
+                unit[j] = 0.0
+            else:
+                col = np.asarray(column(j), dtype=float).ravel()
+            coef, rest = qr.project(col)
             pivot = float(np.linalg.norm(rest))
             unorm = float(np.linalg.norm(coef))
             if pivot > 100.0 * np.spacing(unorm):  # LH's test for an independent column

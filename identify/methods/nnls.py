@@ -19,15 +19,23 @@ keeps the algorithm and changes only how the steps are computed:
 * small problems (the dense side ``min(M, P) x P'`` of the split problem at
   most :data:`DENSE_LH_ENTRIES`): scipy's NNLS on the ``M`` measured rows of
   ``S`` built from the operator (``M <= P``), or on a ``P x P`` factor ``R``
-  with ``R^T R = (A S)^T (A S)`` accumulated from operator products
-  (``M > P``; Lawson-Hanson takes the same steps on ``(R, z)`` with
-  ``R^T z = (A S)^T y`` as on ``(A S, y)``) -- the dense reference's own
-  code, in ``O(M P)`` memory;
-* larger ones: :func:`~.lawson_hanson.lawson_hanson` on the operator itself
-  -- the same path with the passive set's Cholesky factor updated one
-  column at a time, four operator products and ``O(k^2)`` work per step
-  for ``k`` passive columns, ``O(n + k^2)`` memory.  No dense block of
-  ``S`` at all, so it also runs where ``M x P`` would not fit (L = 200).
+  with ``R^T R = (A S)^T (A S)`` (``M > P``; Lawson-Hanson takes the same
+  steps on ``(R, z)`` with ``R^T z = (A S)^T y`` as on ``(A S, y)``) -- the
+  dense reference's own code;
+* larger tall ones (``M > P``, ``P^2`` at most :data:`GRAM_LH_ENTRIES`):
+  :func:`~.lawson_hanson.lawson_hanson` on ``(R, z)`` (:func:`_nnls_on_factor`),
+  ``O(P k)`` a step instead of ``O(M k)``;
+* the rest (``M <= P``, or L > 100): :func:`~.lawson_hanson.lawson_hanson`
+  on the operator itself -- the same path with the passive columns' thin QR
+  factor updated one column at a time, two operator products and ``O(M k)``
+  work per step for ``k`` passive columns.  No dense block of ``S`` at
+  all, so it also runs where ``M x P`` would not fit (L = 200).
+
+The Gram matrix is not accumulated from products with ``S`` (``O(n P)``
+each way): the memory state at a measured row has a few non-zero terms,
+so :meth:`~identify.operators.RegressorOperator.gram` forms ``(A S)^T (A S)``
+as a sparse product and the prefix sums' adjoint on both sides -- 0.1 s
+for the 42,000 measured rows of the FORC session at L = 30.
 
 Ties.  On the Preisach rows the largest gradient is often shared exactly
 by two columns (their difference lies in the span of the passive ones).
@@ -50,6 +58,9 @@ from .lawson_hanson import lawson_hanson
 #: Largest dense side (entries) of the split problem that scipy's NNLS is given; above it
 #: the operator path runs (the two break even near L = 45 on the benchmark's design).
 DENSE_LH_ENTRIES = 500_000
+#: Largest Gram matrix (``P^2`` entries) that a tall problem above :data:`DENSE_LH_ENTRIES` is reduced to
+#: for Lawson-Hanson (:func:`_nnls_on_factor`); above it (L > 100) Lawson-Hanson runs on the operator.
+GRAM_LH_ENTRIES = 25_000_000
 #: Gradient entries below this many rounding errors of ``X^T r`` do not enter the passive set.
 GRADIENT_ULPS = 1000
 
@@ -100,7 +111,59 @@ def nnls_operator(
         w, _ = nnls_free(r, z, n_nonneg)
         residual = operator.matvec(w)[rows] - y
         return w, {"residual_norm": float(np.linalg.norm(residual)), "reduced": True, "path": "gram factor"}
+    if rows.size > P and P * P <= GRAM_LH_ENTRIES:
+        return _nnls_on_factor(operator, rows, y, n_nonneg)
     return _nnls_on_operator(operator, rows, y, n_nonneg)
+
+
+def _split_products(matvec, rmatvec, P: int, n_nonneg: int):
+    """Products with ``[G, F, -F]`` from products with ``[G, F]`` (``P`` columns, the first ``n_nonneg`` G's)."""
+
+    def split_matvec(x):
+        w = x[:P].copy()
+        w[n_nonneg:] -= x[P:]
+        return matvec(w)
+
+    def split_rmatvec(r):
+        g = rmatvec(r)
+        return np.concatenate([g, -g[n_nonneg:]])
+
+    return split_matvec, split_rmatvec
+
+
+def _gradient_tol(operator, rows: np.ndarray, b: np.ndarray, n_nonneg: int) -> float:
+    """What a gradient entry must exceed to enter: :data:`GRADIENT_ULPS` rounding errors of ``X^T r``."""
+    # entries of S are at most 1 (cells, mu0) or |v| (c_d)
+    free = operator.shape[1] - n_nonneg
+    inputs = operator.inputs[rows[rows < operator.inputs.size]]
+    largest = max(1.0, float(np.max(np.abs(inputs), initial=0.0))) if free else 1.0
+    return GRADIENT_ULPS * np.finfo(float).eps * np.sqrt(rows.size) * largest * float(np.linalg.norm(b))
+
+
+def _nnls_on_factor(operator: RegressorOperator, rows: np.ndarray, y: np.ndarray, n_nonneg: int):
+    """Lawson-Hanson on ``(R, z)`` (:func:`_gram_factor`) for a tall ``A S`` (``M > P``).
+
+    The same path as :func:`_nnls_on_operator`: the gradients ``R^T (z - R x) = (A S)^T (y - A S x)``,
+    the passive columns' norms and their inner products are those of ``A S``, so each step takes the
+    same decision -- with products of ``O(P^2)`` and a thin QR of ``P`` rows instead of ``M``.
+    """
+    P = operator.shape[1]
+    free = P - n_nonneg
+    scale = float(np.max(np.abs(y))) or 1.0
+    tol = _gradient_tol(operator, rows, y / scale, n_nonneg)
+    r, z = _gram_factor(operator, rows, y / scale)
+    matvec, rmatvec = _split_products(lambda w: r @ w, lambda v: r.T @ v, P, n_nonneg)
+    columns = np.asfortranarray(np.hstack([r, -r[:, n_nonneg:]]))  # [G, F, -F] on the factor: P x (P + free)
+    result = lawson_hanson(matvec, rmatvec, P + free, z, tol=tol, max_iter=50 * (P + free),
+                           column=lambda j: columns[:, j])
+    w = result.x[:P].copy()
+    w[n_nonneg:] -= result.x[P:]
+    w *= scale
+    residual = operator.matvec(w)[rows] - y
+    return w, {
+        "residual_norm": float(np.linalg.norm(residual)), "reduced": True, "path": "gram factor lh",
+        "entered": result.entered, "removed": result.removed, "rejected": result.rejected,
+    }
 
 
 def _nnls_on_operator(operator: RegressorOperator, rows: np.ndarray, y: np.ndarray, n_nonneg: int):
@@ -110,21 +173,13 @@ def _nnls_on_operator(operator: RegressorOperator, rows: np.ndarray, y: np.ndarr
     scale = float(np.max(np.abs(y))) or 1.0
     b = y / scale
 
-    def matvec(x):
-        w = x[:P].copy()
-        w[n_nonneg:] -= x[P:]
-        return operator.matvec(w)[rows]
-
-    def rmatvec(r):
+    def rows_rmatvec(r):
         full = np.zeros(n)
         full[rows] = r
-        g = operator.rmatvec(full)
-        return np.concatenate([g, -g[n_nonneg:]])
+        return operator.rmatvec(full)
 
-    # rounding of X^T r: entries of S are at most 1 (cells, mu0) or |v| (c_d)
-    inputs = operator.inputs[rows[rows < operator.inputs.size]]
-    largest = max(1.0, float(np.max(np.abs(inputs), initial=0.0))) if free else 1.0
-    tol = GRADIENT_ULPS * np.finfo(float).eps * np.sqrt(rows.size) * largest * float(np.linalg.norm(b))
+    matvec, rmatvec = _split_products(lambda w: operator.matvec(w)[rows], rows_rmatvec, P, n_nonneg)
+    tol = _gradient_tol(operator, rows, b, n_nonneg)
     result = lawson_hanson(matvec, rmatvec, P + free, b, tol=tol, max_iter=50 * (P + free))
     w = result.x[:P].copy()
     w[n_nonneg:] -= result.x[P:]
@@ -137,17 +192,13 @@ def _nnls_on_operator(operator: RegressorOperator, rows: np.ndarray, y: np.ndarr
 
 
 def _gram_factor(operator: RegressorOperator, rows: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``R`` ``(P, P)`` and ``z`` with ``R^T R = (A S)^T A S`` and ``R^T z = (A S)^T y``."""
-    n, P = operator.shape
-    mask = np.zeros(n)
-    mask[rows] = 1.0
-    gram = np.empty((P, P))
-    block = max(1, 8_000_000 // max(n, 1))
-    for start in range(0, P, block):
-        stop = min(P, start + block)
-        e = np.zeros((P, stop - start))
-        e[np.arange(start, stop), np.arange(stop - start)] = 1.0
-        gram[:, start:stop] = operator.rmatmat(operator.matmat(e) * mask[:, None])
+    """``R`` ``(P, P)`` and ``z`` with ``R^T R = (A S)^T A S`` and ``R^T z = (A S)^T y``.
+
+    The Gram matrix from the operator's :meth:`~identify.operators.RegressorOperator.gram` (sparse memory
+    states at the measured rows), ``(A S)^T y`` from one product.
+    """
+    n = operator.shape[0]
+    gram = operator.gram(rows)
     gram = (gram + gram.T) / 2.0
     full = np.zeros(n)
     full[rows] = y
