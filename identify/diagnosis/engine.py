@@ -556,7 +556,14 @@ def _assess(cand: Candidate, grid_settings: list[dict[str, float]], cols_list: l
     gap = scored.gap
     parts = _shared(cols_list, lambda c: _effective(base, scored, c))
     visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list, floor_rms, unit)
-    designs = [_with_reference(e, a, c, reference.recal) for (e, a, _), c in zip(parts, cols_list)]
+    # settings that share their columns (a drift's roughness weights, see _columns) share one design's arrays
+    # but for the weight: cross-validation then forms the data part of their normal equations once
+    made: dict[int, Design] = {}
+    designs = []
+    for (e, a, _), c in zip(parts, cols_list):
+        if id(c.values) not in made:
+            made[id(c.values)] = _with_reference(e, a, c, reference.recal)
+        designs.append(replace(made[id(c.values)], smoothing=c.smoothing))
     cv = cross_validate(gap, scored.blocks, designs, base.residual, fit_weight)
     best = cv.full_setting
     after = gap - cv.prediction
