@@ -3,6 +3,8 @@ and how far the gap shrinks once that effect is added."""
 
 from __future__ import annotations
 
+import functools
+import os
 from pathlib import Path
 
 import click
@@ -10,6 +12,7 @@ import numpy as np
 
 from identify.diagnosis import NAMES, DiagnosisSettings, diagnose as run_diagnosis
 from identify.methods import METHODS
+from identify.threads import single_threaded, user_chose_threads
 
 from ..curve_selection import CURVE_CHOICES
 from ..diagnosis.calibration import drift_agreement
@@ -20,8 +23,41 @@ from ..diagnosis.report import to_json, to_text, write_figures
 from ..errors import UserError
 from ..options import AliasedOption
 from ..output import print_json
+from ..parallel import available_cores, map_with_helper, start_workers
 
 _PATH = click.Path(dir_okay=False, path_type=Path)
+#: What the helper process that scores half the candidates imports once (its fork server, started early).
+HELPER_MODULES = ("identify.diagnosis.engine", "rig.parallel")
+#: Fewest measured check points for which the candidates are shared with a helper process: below, the
+#: helper's start (its imports, about a second of a core) is not paid back.
+HELPER_MIN_POINTS = 150
+
+
+def _load() -> float:
+    """The last minute's load average (0 where the system does not say)."""
+    try:
+        return os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return 0.0
+
+
+def _candidate_mapper(loaded):
+    """How the diagnosis runs its candidates: shared between this process and a helper process
+    (:func:`rig.parallel.map_with_helper`) when a second core is free (two or more, the last minute's load
+    below their number: on a busy machine the helper only takes this process's share) and the check runs
+    are long enough to pay for its start; else None (one after the other).  Only where both processes
+    compute alike: the helper has one BLAS thread, as the diagnosis of a small grid has
+    (:mod:`identify.threads`), or the threads the user set for both."""
+    grid = loaded.grid
+    cores = available_cores()
+    if cores < 2 or _load() >= cores:
+        return None
+    if not (single_threaded(grid.n_cells + 2) or user_chose_threads()):
+        return None
+    if sum(len(run.rows) for run in loaded.check) < HELPER_MIN_POINTS:
+        return None
+    start_workers(HELPER_MODULES)  # the helper's imports overlap the base fit's
+    return functools.partial(map_with_helper, preload=HELPER_MODULES)  # (--partial shadows partial below)
 
 
 def _effects(text: str | None) -> tuple[str, ...] | None:
@@ -94,8 +130,10 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
     loaded = load_runs(list(fit_paths), checks, levels, v_min, v_max, allow_partial=partial,
                        fit_curves=fit_curves, check_curves=check_curves, stride=stride)
     settings = DiagnosisSettings(method=method, effects=_effects(",".join(effects) or None), seed=seed)
+    mapper = _candidate_mapper(loaded)
     result = run_diagnosis(loaded.fit, loaded.check, loaded.grid, settings,
-                           monitors=[np.asarray(m.output, dtype=float) for m in loaded.unique_monitors()])
+                           monitors=[np.asarray(m.output, dtype=float) for m in loaded.unique_monitors()],
+                           mapper=mapper)
     fit_names = [str(p) + ("" if fit_curves == "all" else f":{fit_curves}") for p in fit_paths]
     check_names = [str(p) + ("" if check_curves == "all" else f":{check_curves}") for p in checks]
     agreement = drift_agreement(result, loaded)
@@ -126,7 +164,8 @@ def diagnose(fit_paths, check_paths, more_checks, as_json, out_dir, levels, v_mi
                           allow_partial=partial, fit_curves=fit_curves, check_curves=check_curves, stride=stride,
                           extra_checks=[session])
         second = run_diagnosis(again.fit, again.check, again.grid, settings,
-                               monitors=[np.asarray(m.output, dtype=float) for m in again.unique_monitors()])
+                               monitors=[np.asarray(m.output, dtype=float) for m in again.unique_monitors()],
+                               mapper=_candidate_mapper(again))
         again_names, again_agreement = check_names + [str(session)], drift_agreement(second, again)
         after = to_json(second, fit_names, again_names, again.warnings, again_agreement)
         follow_up.update(after=after, changed=changed(obj["verdict"], after["verdict"]))

@@ -1,0 +1,100 @@
+"""The diagnosis's candidates run through a mapper: in another order, or shared with a helper process
+(:func:`rig.parallel.map_with_helper`, what ``rig diagnose`` passes on two cores) -- the same diagnosis as
+one after the other here."""
+
+from __future__ import annotations
+
+import functools
+import operator
+import os
+import time
+
+import numpy as np
+import pytest
+
+from identify.diagnosis import DiagnosisSettings, diagnose
+from rig.commands import diagnose as diagnose_command
+from rig.diagnosis.loading import load_runs
+from rig.diagnosis.simulate import SimulatedBench, simulate
+from rig.parallel import map_with_helper, open_executor
+
+PRELOAD = diagnose_command.HELPER_MODULES
+
+
+def pid_after(seconds: float) -> int:
+    """This process's id, after ``seconds`` (long enough for the other process to take an item too)."""
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def test_map_with_helper_is_map_in_order_and_shares_the_items():
+    assert map_with_helper(functools.partial(operator.mul, 3), list(range(7))) == [0, 3, 6, 9, 12, 15, 18]
+    assert map_with_helper(functools.partial(operator.mul, 3), [5]) == [15]
+    assert map_with_helper(functools.partial(operator.mul, 3), []) == []
+    pids = map_with_helper(pid_after, [0.3] * 12)
+    assert os.getpid() in pids and len(set(pids)) == 2  # this process and the helper both took items
+
+
+def test_map_with_helper_raises_the_first_failing_item_as_the_loop_would():
+    with pytest.raises(ZeroDivisionError):
+        map_with_helper(functools.partial(operator.truediv, 1.0), [1.0, 2.0, 0.0, 4.0, 0.0, 8.0])
+
+
+def _reversed_map(function, items):
+    """A mapper that computes the items last first (and returns them in order)."""
+    return [function(x) for x in reversed(list(items))][::-1]
+
+
+def _all_in_another_process(function, items):
+    """A mapper that computes every item in a process of the local pool."""
+    with open_executor(1, preload=PRELOAD) as pool:
+        return list(pool.map(function, items))
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    fit, check = simulate(SimulatedBench("baseline_drift", 0.3, seed=2, levels=8, check_points=100),
+                          tmp_path_factory.mktemp("mapped"))
+    return load_runs([fit], [check])
+
+
+def _same(a, b) -> None:
+    assert a.verdict == b.verdict
+    assert [c.effect for c in a.candidates] == [c.effect for c in b.candidates]
+    assert a.candidates == b.candidates  # every score and fitted parameter, exactly
+    assert a.not_assessed == b.not_assessed
+    assert a.residual_after.keys() == b.residual_after.keys()
+    for name in a.residual_after:
+        np.testing.assert_array_equal(a.residual_after[name], b.residual_after[name])
+    assert (a.kept is None) == (b.kept is None)
+    if a.kept is not None:
+        assert (a.kept.effects, a.kept.rmse_um, a.kept.params) == (b.kept.effects, b.kept.rmse_um, b.kept.params)
+
+
+@pytest.mark.slow
+def test_the_diagnosis_does_not_depend_on_how_its_candidates_are_mapped(runs):
+    settings = DiagnosisSettings(n_boot=200)
+    serial = diagnose(runs.fit, runs.check, runs.grid, settings)
+    _same(serial, diagnose(runs.fit, runs.check, runs.grid, settings, mapper=_reversed_map))
+    _same(serial, diagnose(runs.fit, runs.check, runs.grid, settings, mapper=_all_in_another_process))
+    helped = diagnose(runs.fit, runs.check, runs.grid, settings,
+                      mapper=functools.partial(map_with_helper, preload=PRELOAD))
+    _same(serial, helped)
+
+
+def test_rig_diagnose_shares_the_candidates_only_where_it_pays(runs, monkeypatch):
+    started = []
+    monkeypatch.setattr(diagnose_command, "start_workers", lambda modules: started.append(modules))
+    monkeypatch.setattr(diagnose_command, "available_cores", lambda: 2)
+    monkeypatch.setattr(diagnose_command, "HELPER_MIN_POINTS", 50)
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))
+    assert diagnose_command._candidate_mapper(runs) is not None and started == [PRELOAD]
+    monkeypatch.setattr(diagnose_command, "HELPER_MIN_POINTS", 10_000)  # too few check points
+    assert diagnose_command._candidate_mapper(runs) is None
+    monkeypatch.setattr(diagnose_command, "HELPER_MIN_POINTS", 50)
+    monkeypatch.setattr(diagnose_command, "available_cores", lambda: 1)  # no second core
+    assert diagnose_command._candidate_mapper(runs) is None
+    monkeypatch.setattr(diagnose_command, "available_cores", lambda: 2)
+    monkeypatch.setattr(os, "getloadavg", lambda: (3.5, 3.0, 2.0))  # the cores are busy with other work
+    assert diagnose_command._candidate_mapper(runs) is None
+    assert len(started) == 1
