@@ -47,6 +47,7 @@ import contextlib
 import multiprocessing
 import os
 import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import TypeVar
 
@@ -72,6 +73,23 @@ def available_cores() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def other_running_tasks(samples: int = 3, interval_s: float = 0.005) -> int | None:
+    """How many tasks besides this one the machine is running (or has ready to run) now: the least of a
+    few reads of ``/proc/loadavg``'s count, so that a task running only for a moment is not counted; None
+    where the system does not say.  A snapshot, not the last minute's average: the average still counts a
+    command that has just ended."""
+    counts = []
+    for i in range(samples):
+        try:
+            with open("/proc/loadavg", encoding="ascii") as f:
+                counts.append(int(f.read().split()[3].split("/")[0]) - 1)
+        except (OSError, IndexError, ValueError):
+            return None
+        if i + 1 < samples:
+            time.sleep(interval_s)
+    return max(0, min(counts))
 
 
 def default_workers(n_jobs: int, requested: int | None = None) -> int:

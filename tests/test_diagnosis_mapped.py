@@ -16,7 +16,7 @@ from identify.diagnosis import DiagnosisSettings, diagnose
 from rig.commands import diagnose as diagnose_command
 from rig.diagnosis.loading import load_runs
 from rig.diagnosis.simulate import SimulatedBench, simulate
-from rig.parallel import map_with_helper, open_executor
+from rig.parallel import map_with_helper, open_executor, other_running_tasks
 
 PRELOAD = diagnose_command.HELPER_MODULES
 
@@ -87,7 +87,7 @@ def test_rig_diagnose_shares_the_candidates_only_where_it_pays(runs, monkeypatch
     monkeypatch.setattr(diagnose_command, "start_workers", lambda modules: started.append(modules))
     monkeypatch.setattr(diagnose_command, "available_cores", lambda: 2)
     monkeypatch.setattr(diagnose_command, "HELPER_MIN_POINTS", 50)
-    monkeypatch.setattr(os, "getloadavg", lambda: (0.2, 0.2, 0.2))
+    monkeypatch.setattr(diagnose_command, "other_running_tasks", lambda: 0)
     assert diagnose_command._candidate_mapper(runs) is not None and started == [PRELOAD]
     monkeypatch.setattr(diagnose_command, "HELPER_MIN_POINTS", 10_000)  # too few check points
     assert diagnose_command._candidate_mapper(runs) is None
@@ -95,6 +95,13 @@ def test_rig_diagnose_shares_the_candidates_only_where_it_pays(runs, monkeypatch
     monkeypatch.setattr(diagnose_command, "available_cores", lambda: 1)  # no second core
     assert diagnose_command._candidate_mapper(runs) is None
     monkeypatch.setattr(diagnose_command, "available_cores", lambda: 2)
-    monkeypatch.setattr(os, "getloadavg", lambda: (3.5, 3.0, 2.0))  # the cores are busy with other work
+    monkeypatch.setattr(diagnose_command, "other_running_tasks", lambda: 1)  # the other core is busy
     assert diagnose_command._candidate_mapper(runs) is None
-    assert len(started) == 1
+    monkeypatch.setattr(diagnose_command, "available_cores", lambda: 4)  # but two more are free
+    assert diagnose_command._candidate_mapper(runs) is not None
+    assert len(started) == 2
+
+
+def test_other_running_tasks_does_not_count_this_one():
+    other = other_running_tasks()
+    assert other is None or other >= 0
