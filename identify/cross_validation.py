@@ -318,7 +318,30 @@ def _block_sse(ne: _Normal, gg: np.ndarray, coef: np.ndarray, blocks: np.ndarray
     return gg[blocks] - 2.0 * np.sum(coef * r, axis=-1) + np.einsum("...i,...ij,...j->...", coef, g, coef)
 
 
-def _inner_errors(ne: _Normal, gg: np.ndarray) -> np.ndarray:
+def _group_parts(ne: _Normal, gg: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A wide design's inner folds: ``group`` ``(B, F)``, the ``f``-th group of blocks left out beside held-out
+    block ``b`` (an index into the rest), and each group's summed block Gram matrices, right-hand sides and
+    squared gaps.  The same for every setting that shares the design's data part."""
+    nb = ne.block_rhs.shape[0]
+    others = np.arange(nb)
+    sums: dict[tuple[int, ...], int] = {}  # a group's index in the parts below, shared by the held-out blocks
+    part_g, part_r, part_gg = [], [], []
+    group = np.zeros((nb, min(INNER_FOLDS, nb - 1)), int)
+    for b in range(nb):
+        rest = others[others != b]
+        for f, grp in enumerate(np.array_split(rest, min(INNER_FOLDS, rest.size))):
+            key = tuple(grp)
+            if key not in sums:
+                sums[key] = len(part_g)
+                part_g.append(ne.block_gram[grp].sum(axis=0))
+                part_r.append(ne.block_rhs[grp].sum(axis=0))
+                part_gg.append(gg[grp].sum())
+            group[b, f] = sums[key]
+    return group, np.stack(part_g), np.stack(part_r), np.asarray(part_gg)
+
+
+def _inner_errors(ne: _Normal, gg: np.ndarray, scratch: np.ndarray | None = None, shared: dict | None = None
+                  ) -> np.ndarray:
     """The inner cross-validation's squared error ``(B,)`` of one setting for each held-out block ``b``: the
     other blocks' errors, each left out in turn (or :data:`INNER_FOLDS` groups of them for a wide design)
     from the fit without ``b``.
@@ -330,6 +353,9 @@ def _inner_errors(ne: _Normal, gg: np.ndarray) -> np.ndarray:
     read from each block's normal equations, one product per block (``(B, B, k)`` coefficients kept).  A
     wide design's fits without ``b`` and a group are all solved in such batches too, and each is scored
     on the group as a whole (the group's summed normal equations: one quadratic form, not one per block).
+    The batches are formed in ``scratch`` (a float array, replaced when too small; reused from setting to
+    setting: fresh memory for every batch cost as much as solving it), and a
+    wide design's groups are kept in ``shared`` for the settings that share its data part.
     """
     nb, k = ne.block_rhs.shape
     if nb == 0:
@@ -337,40 +363,55 @@ def _inner_errors(ne: _Normal, gg: np.ndarray) -> np.ndarray:
     left = ne.gram - ne.block_gram  # (B, k, k): the fit without b, before a second block is taken out
     left_r = ne.rhs - ne.block_rhs
     step = max(1, BATCH_ENTRIES // max(1, k * k))
+    systems = nb * (nb - 1) // 2 if k <= WIDE else nb * min(INNER_FOLDS, nb - 1)
+    need = min(systems, max(step, nb)) * k * k  # a batch holds at least one held-out block's systems
+    if scratch is None or scratch.size < need:
+        scratch = np.empty(need)
     if k <= WIDE:  # leave each remaining block out in turn
-        first, second = np.triu_indices(nb, 1)
-        coef = np.zeros((nb, nb, k))  # [b, c]: fitted without blocks b and c (symmetric in b, c)
-        for start in range(0, first.size, step):
-            b, c = first[start:start + step], second[start:start + step]
-            coef[b, c] = feasible_coefficients(left[b] - ne.block_gram[c], left_r[b] - ne.block_rhs[c], ne.nonneg,
-                                               overwrite=True)
-            coef[c, b] = coef[b, c]
+        coef = np.zeros((nb, nb, k))  # [b, c]: fitted without blocks b and c (b < c here, mirrored below)
+        b = 0
+        while b < nb - 1:  # a batch: the pairs (b, c > b) of consecutive b, at least one b's
+            last, size = b, nb - 1 - b
+            while last + 1 < nb - 1 and size + nb - 2 - last <= step:
+                last += 1
+                size += nb - 1 - last
+            m = scratch[: size * k * k].reshape(size, k, k)
+            r = np.empty((size, k))
+            at = 0
+            for h in range(b, last + 1):  # (G - G_h) - G_c for every c > h: views, no gathered copies
+                np.subtract(left[h], ne.block_gram[h + 1:], out=m[at:at + nb - 1 - h])
+                np.subtract(left_r[h], ne.block_rhs[h + 1:], out=r[at:at + nb - 1 - h])
+                at += nb - 1 - h
+            solved = feasible_coefficients(m, r, ne.nonneg, overwrite=True)
+            at = 0
+            for h in range(b, last + 1):
+                coef[h, h + 1:] = solved[at:at + nb - 1 - h]
+                at += nb - 1 - h
+            b = last + 1
+        coef += coef.transpose(1, 0, 2)  # the fit without b and c serves both (zeros elsewhere: exact)
         # sse[c, b]: the fit without b and c scored on block c, b = c contributing nothing
         by_c = coef.transpose(1, 0, 2)
         sse = gg[:, None] + np.sum(by_c * (np.matmul(by_c, ne.block_gram) - 2.0 * ne.block_rhs[:, None, :]), axis=-1)
         sse[np.diag_indices(nb)] = 0.0
         return sse.sum(axis=0)
-    others = np.arange(nb)
-    sums: dict[tuple[int, ...], int] = {}  # a group's index in the parts below, shared by the held-out blocks
-    part_g, part_r, part_gg = [], [], []
-    group = np.zeros((nb, min(INNER_FOLDS, nb - 1)), int)  # [b, f]: the f-th group left out beside b
-    for b in range(nb):
-        rest = others[others != b]
-        for f, grp in enumerate(np.array_split(rest, min(INNER_FOLDS, rest.size))):
-            key = tuple(grp)
-            if key not in sums:
-                sums[key] = len(part_g)
-                part_g.append(ne.block_gram[grp].sum(axis=0))
-                part_r.append(ne.block_rhs[grp].sum(axis=0))
-                part_gg.append(gg[grp].sum())
-            group[b, f] = sums[key]
-    part_g, part_r, part_gg = np.stack(part_g), np.stack(part_r), np.asarray(part_gg)
+    key = id(ne.block_gram)
+    if shared is None or key not in shared:
+        parts = _group_parts(ne, gg)
+        if shared is not None:
+            shared[key] = (ne.block_gram, parts)  # the array kept alive with its id
+    else:
+        parts = shared[key][1]
+    group, part_g, part_r, part_gg = parts
+    folds = group.shape[1]
     coef = np.zeros(group.shape + (k,))
-    per = max(1, step // group.shape[1])  # held-out blocks a batch
+    per = max(1, step // folds)  # held-out blocks a batch
     for start in range(0, nb, per):
-        b, g = others[start:start + per], group[start:start + per]
-        coef[b] = feasible_coefficients(left[b][:, None] - part_g[g], left_r[b][:, None] - part_r[g], ne.nonneg,
-                                        overwrite=True)
+        rows = slice(start, min(nb, start + per))
+        n = rows.stop - start
+        m = scratch[: n * folds * k * k].reshape(n, folds, k, k)
+        np.take(part_g, group[rows], axis=0, out=m, mode="clip")
+        np.subtract(left[rows, None], m, out=m)
+        coef[rows] = feasible_coefficients(m, left_r[rows, None] - part_r[group[rows]], ne.nonneg, overwrite=True)
     quad = np.zeros(group.shape)  # coef^T G_g coef, one product per group (no batch of its Gram matrices)
     for g in range(part_gg.size):
         mine = group == g
@@ -416,7 +457,10 @@ def cross_validate(
         outer_coef.append(coef)
         outer[s] = _block_sse(ne, gg, coef, others)
     # inner cross-validation errors (S, B): the setting chosen for each held-out block
-    inner = np.stack([_inner_errors(ne, gg) for ne in normals]) if len(normals) > 1 else None
+    inner = None
+    if len(normals) > 1:
+        scratch, shared = np.empty(BATCH_ENTRIES), {}
+        inner = np.stack([_inner_errors(ne, gg, scratch, shared) for ne in normals])
     for b in range(nb):
         best = 0 if inner is None else int(np.argmin(inner[:, b]))
         rows = blocks.index == b

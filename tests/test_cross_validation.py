@@ -59,13 +59,21 @@ def test_inner_errors_of_a_wide_design_are_those_of_every_group_solved_on_its_ow
     np.testing.assert_allclose(got, _by_definition(ne, gap, blocks, wide=True), rtol=1e-10)
 
 
-def test_inner_errors_do_not_depend_on_the_batch_size(monkeypatch):
+@pytest.mark.parametrize("wide", [False, True])
+def test_inner_errors_do_not_depend_on_the_batch_size_nor_on_a_reused_scratch(monkeypatch, wide):
+    if wide:
+        monkeypatch.setattr(cvm, "WIDE", 3)
     gap, blocks, design = _case(4, seed=2)
     ind = onehot(blocks)
+    gg = ind @ (gap * gap)
     ne = cvm._normal(design, gap, ind, None, 1.0)
-    whole = cvm._inner_errors(ne, ind @ (gap * gap))
-    monkeypatch.setattr(cvm, "BATCH_ENTRIES", 40)  # a few systems a batch
-    np.testing.assert_array_equal(cvm._inner_errors(ne, ind @ (gap * gap)), whole)
+    whole = cvm._inner_errors(ne, gg)
+    monkeypatch.setattr(cvm, "BATCH_ENTRIES", 40)  # two systems a batch: one held-out block's at least
+    np.testing.assert_array_equal(cvm._inner_errors(ne, gg), whole)
+    scratch, shared = np.full(7, np.nan), {}  # too small: replaced; then the same again with what it keeps
+    np.testing.assert_array_equal(cvm._inner_errors(ne, gg, scratch, shared), whole)
+    np.testing.assert_array_equal(cvm._inner_errors(ne, gg, np.full(10_000, np.nan), shared), whole)
+    assert bool(shared) == wide
 
 
 def test_settings_that_share_their_columns_share_the_data_part_and_nothing_else():
