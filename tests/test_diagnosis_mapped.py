@@ -21,17 +21,24 @@ from rig.parallel import map_with_helper, open_executor, other_running_tasks
 PRELOAD = diagnose_command.HELPER_MODULES
 
 
-def pid_after(seconds: float) -> int:
-    """This process's id, after ``seconds`` (long enough for the other process to take an item too)."""
-    time.sleep(seconds)
+def pid_when_both_took_one(path: str) -> int:
+    """This process's id, once two processes have each taken an item (their ids written to ``path``)."""
+    with open(path, "a", encoding="ascii") as f:
+        f.write(f"{os.getpid()}\n")
+    deadline = time.monotonic() + 30.0
+    while time.monotonic() < deadline:
+        with open(path, encoding="ascii") as f:
+            if len(set(f.read().split())) >= 2:
+                break
+        time.sleep(0.01)
     return os.getpid()
 
 
-def test_map_with_helper_is_map_in_order_and_shares_the_items():
+def test_map_with_helper_is_map_in_order_and_shares_the_items(tmp_path):
     assert map_with_helper(functools.partial(operator.mul, 3), list(range(7))) == [0, 3, 6, 9, 12, 15, 18]
     assert map_with_helper(functools.partial(operator.mul, 3), [5]) == [15]
     assert map_with_helper(functools.partial(operator.mul, 3), []) == []
-    pids = map_with_helper(pid_after, [0.3] * 12)
+    pids = map_with_helper(pid_when_both_took_one, [str(tmp_path / "pids")] * 4)
     assert os.getpid() in pids and len(set(pids)) == 2  # this process and the helper both took items
 
 
@@ -86,19 +93,17 @@ def test_rig_diagnose_shares_the_candidates_only_where_it_pays(runs, monkeypatch
     started = []
     monkeypatch.setattr(diagnose_command, "start_workers", lambda modules: started.append(modules))
     monkeypatch.setattr(diagnose_command, "available_cores", lambda: 2)
-    monkeypatch.setattr(diagnose_command, "HELPER_MIN_POINTS", 50)
     monkeypatch.setattr(diagnose_command, "other_running_tasks", lambda: 0)
-    assert diagnose_command._candidate_mapper(runs) is not None and started == [PRELOAD]
-    monkeypatch.setattr(diagnose_command, "HELPER_MIN_POINTS", 10_000)  # too few check points
-    assert diagnose_command._candidate_mapper(runs) is None
-    monkeypatch.setattr(diagnose_command, "HELPER_MIN_POINTS", 50)
+    monkeypatch.setattr(diagnose_command, "HELPER_MIN_WORK", 100 * 83)  # 100 check points, the whole library
+    assert diagnose_command._candidate_mapper(runs, None) is not None and started == [PRELOAD]
+    assert diagnose_command._candidate_mapper(runs, ("thermal_lag", "joule_power")) is None  # 4 settings
     monkeypatch.setattr(diagnose_command, "available_cores", lambda: 1)  # no second core
-    assert diagnose_command._candidate_mapper(runs) is None
+    assert diagnose_command._candidate_mapper(runs, None) is None
     monkeypatch.setattr(diagnose_command, "available_cores", lambda: 2)
     monkeypatch.setattr(diagnose_command, "other_running_tasks", lambda: 1)  # the other core is busy
-    assert diagnose_command._candidate_mapper(runs) is None
+    assert diagnose_command._candidate_mapper(runs, None) is None
     monkeypatch.setattr(diagnose_command, "available_cores", lambda: 4)  # but two more are free
-    assert diagnose_command._candidate_mapper(runs) is not None
+    assert diagnose_command._candidate_mapper(runs, None) is not None
     assert len(started) == 2
 
 
