@@ -99,16 +99,19 @@ def make_blocks(points_per_run: list[int]) -> Blocks:
     return Blocks(np.concatenate(index) if index else np.zeros(0, int), np.asarray(runs), np.asarray(sizes))
 
 
-def _ridged(gram: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _ridged(gram: np.ndarray, rhs: np.ndarray, overwrite: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The normal equations with :data:`RIDGE` times the mean diagonal added, the right-hand side (as
-    arrays), and their unconstrained solution (zeros when there is no coefficient)."""
+    arrays), and their unconstrained solution (zeros when there is no coefficient).  ``overwrite``: the
+    ridge may be added to ``gram`` itself (a temporary of the caller's, float and writable)."""
     gram = np.asarray(gram, dtype=float)
     rhs = np.asarray(rhs, dtype=float)
     k = rhs.shape[-1]
     if k == 0:
         return gram, rhs, np.zeros(rhs.shape)
     ridge = RIDGE * np.trace(gram, axis1=-2, axis2=-1) / k + 1e-300
-    g = gram + ridge[..., None, None] * np.eye(k)
+    g = gram if overwrite else gram.copy()  # the ridge added on the diagonal (ridge * I costs a batch of matrices)
+    diagonal = np.arange(k)
+    g[..., diagonal, diagonal] += ridge[..., None]
     return g, rhs, np.linalg.solve(g, rhs[..., None])[..., 0]
 
 
@@ -154,7 +157,8 @@ def solve_coefficients(gram: np.ndarray, rhs: np.ndarray, nonneg: np.ndarray) ->
     return out.reshape(coef.shape)
 
 
-def feasible_coefficients(gram: np.ndarray, rhs: np.ndarray, nonneg: np.ndarray) -> np.ndarray:
+def feasible_coefficients(gram: np.ndarray, rhs: np.ndarray, nonneg: np.ndarray, overwrite: bool = False
+                          ) -> np.ndarray:
     """A feasible, nearly optimal solution of :func:`solve_coefficients`' problem for a whole batch at once.
 
     The unconstrained solution, then, while any constrained coefficient is negative, those coefficients
@@ -163,9 +167,10 @@ def feasible_coefficients(gram: np.ndarray, rhs: np.ndarray, nonneg: np.ndarray)
     so the error is an upper bound of the exact one -- close enough to *choose* a setting (a spectrum's
     sign) in the inner cross-validation, where an exact solve per system and block pair cost minutes,
     and honest where an unconstrained one is not: without the constraint the two signs of a
-    relaxation spectrum fit alike, and the choice between them was a coin toss.
+    relaxation spectrum fit alike, and the choice between them was a coin toss.  ``overwrite``: ``gram``
+    is the caller's temporary, and the ridge may be added to it in place.
     """
-    g, rhs, coef = _ridged(gram, rhs)
+    g, rhs, coef = _ridged(gram, rhs, overwrite)
     k = rhs.shape[-1]
     nonneg = np.asarray(nonneg, dtype=bool)
     if k == 0 or not nonneg.any():
@@ -251,9 +256,12 @@ class _Normal:
     nonneg: np.ndarray
 
 
-def _normal(design: Design, gap: np.ndarray, ind: np.ndarray, fit_residual, fit_weight: float) -> _Normal:
+def _data_part(design: Design, gap: np.ndarray, ind: np.ndarray, fit_residual, fit_weight: float) -> tuple:
+    """What a design's normal equations owe to its columns alone, before any penalty: the normalised check
+    columns ``(m, k)``, the column scales ``(k,)``, the data Gram matrix and right-hand side, and each
+    block's part of them.  Settings that differ only in their penalty (a drift's roughness weights) share
+    it (:func:`_normals`)."""
     e = np.asarray(design.check, dtype=float)
-    k = e.shape[1]
     a = None if design.fit is None or fit_residual is None else np.asarray(design.fit, dtype=float)
     sq, n = np.sum(e * e, axis=0), e.shape[0]
     if a is not None:
@@ -265,6 +273,18 @@ def _normal(design: Design, gap: np.ndarray, ind: np.ndarray, fit_residual, fit_
         a = a / scale
         gram = gram + fit_weight * (a.T @ a)
         rhs = rhs + fit_weight * (a.T @ fit_residual)
+    k = e.shape[1]
+    members = [np.flatnonzero(ind[b]) for b in range(ind.shape[0])]
+    block_gram = np.stack([e[r].T @ e[r] for r in members]) if members else np.zeros((0, k, k))
+    block_rhs = np.stack([e[r].T @ gap[r] for r in members]) if members else np.zeros((0, k))
+    return e, scale, gram, rhs, block_gram, block_rhs
+
+
+def _normal(design: Design, gap: np.ndarray, ind: np.ndarray, fit_residual, fit_weight: float,
+            data: tuple | None = None) -> _Normal:
+    """``design``'s normal equations; ``data``: its :func:`_data_part` when already computed."""
+    e, scale, gram, rhs, block_gram, block_rhs = data or _data_part(design, gap, ind, fit_residual, fit_weight)
+    k = e.shape[1]
     for idx, r, w in design.blocks:
         idx = np.asarray(idx)
         p = np.asarray(r, dtype=float) / np.outer(scale[idx], scale[idx])
@@ -275,10 +295,20 @@ def _normal(design: Design, gap: np.ndarray, ind: np.ndarray, fit_residual, fit_
         p = np.asarray(design.roughness, dtype=float) / np.outer(scale, scale)
         gram = gram + design.smoothing * p * np.trace(gram) / max(np.trace(p), 1e-300)
     nonneg = np.zeros(k, bool) if design.nonneg is None else np.asarray(design.nonneg, dtype=bool)
-    members = [np.flatnonzero(ind[b]) for b in range(ind.shape[0])]
-    block_gram = np.stack([e[r].T @ e[r] for r in members]) if members else np.zeros((0, k, k))
-    block_rhs = np.stack([e[r].T @ gap[r] for r in members]) if members else np.zeros((0, k))
     return _Normal(gram, rhs, block_gram, block_rhs, e, scale, nonneg)
+
+
+def _normals(designs, gap: np.ndarray, ind: np.ndarray, fit_residual, fit_weight: float) -> list[_Normal]:
+    """:func:`_normal` of each design, the data part computed once for designs that share their column
+    arrays (the same ``check`` and ``fit`` objects: settings that differ only in a penalty)."""
+    done: dict[tuple[int, int], tuple] = {}
+    out = []
+    for d in designs:
+        key = (id(d.check), id(d.fit))
+        if key not in done:
+            done[key] = _data_part(d, gap, ind, fit_residual, fit_weight)
+        out.append(_normal(d, gap, ind, fit_residual, fit_weight, done[key]))
+    return out
 
 
 def _block_sse(ne: _Normal, gg: np.ndarray, coef: np.ndarray, blocks: np.ndarray) -> np.ndarray:
@@ -288,7 +318,30 @@ def _block_sse(ne: _Normal, gg: np.ndarray, coef: np.ndarray, blocks: np.ndarray
     return gg[blocks] - 2.0 * np.sum(coef * r, axis=-1) + np.einsum("...i,...ij,...j->...", coef, g, coef)
 
 
-def _inner_errors(ne: _Normal, gg: np.ndarray) -> np.ndarray:
+def _group_parts(ne: _Normal, gg: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A wide design's inner folds: ``group`` ``(B, F)``, the ``f``-th group of blocks left out beside held-out
+    block ``b`` (an index into the rest), and each group's summed block Gram matrices, right-hand sides and
+    squared gaps.  The same for every setting that shares the design's data part."""
+    nb = ne.block_rhs.shape[0]
+    others = np.arange(nb)
+    sums: dict[tuple[int, ...], int] = {}  # a group's index in the parts below, shared by the held-out blocks
+    part_g, part_r, part_gg = [], [], []
+    group = np.zeros((nb, min(INNER_FOLDS, nb - 1)), int)
+    for b in range(nb):
+        rest = others[others != b]
+        for f, grp in enumerate(np.array_split(rest, min(INNER_FOLDS, rest.size))):
+            key = tuple(grp)
+            if key not in sums:
+                sums[key] = len(part_g)
+                part_g.append(ne.block_gram[grp].sum(axis=0))
+                part_r.append(ne.block_rhs[grp].sum(axis=0))
+                part_gg.append(gg[grp].sum())
+            group[b, f] = sums[key]
+    return group, np.stack(part_g), np.stack(part_r), np.asarray(part_gg)
+
+
+def _inner_errors(ne: _Normal, gg: np.ndarray, scratch: np.ndarray | None = None, shared: dict | None = None
+                  ) -> np.ndarray:
     """The inner cross-validation's squared error ``(B,)`` of one setting for each held-out block ``b``: the
     other blocks' errors, each left out in turn (or :data:`INNER_FOLDS` groups of them for a wide design)
     from the fit without ``b``.
@@ -296,37 +349,75 @@ def _inner_errors(ne: _Normal, gg: np.ndarray) -> np.ndarray:
     A narrow design leaves out every pair of blocks, and the fit without ``b`` and ``c`` is the same for
     held-out ``b`` (scored on ``c``) and held-out ``c`` (scored on ``b``): each pair's system is solved
     once, ``(G - G_b) - G_c`` for ``b < c`` (for ``b > c`` it differs from the per-block order only by
-    rounding), in batches of at most :data:`BATCH_ENTRIES` matrix entries.
+    rounding), in batches of at most :data:`BATCH_ENTRIES` matrix entries; the errors of all pairs are then
+    read from each block's normal equations, one product per block (``(B, B, k)`` coefficients kept).  A
+    wide design's fits without ``b`` and a group are all solved in such batches too, and each is scored
+    on the group as a whole (the group's summed normal equations: one quadratic form, not one per block).
+    The batches are formed in ``scratch`` (a float array, replaced when too small; reused from setting to
+    setting: fresh memory for every batch cost as much as solving it), and a
+    wide design's groups are kept in ``shared`` for the settings that share its data part.
     """
     nb, k = ne.block_rhs.shape
-    others = np.arange(nb)
-    out = np.zeros(nb)
+    if nb == 0:
+        return np.zeros(0)
+    left = ne.gram - ne.block_gram  # (B, k, k): the fit without b, before a second block is taken out
+    left_r = ne.rhs - ne.block_rhs
+    step = max(1, BATCH_ENTRIES // max(1, k * k))
+    systems = nb * (nb - 1) // 2 if k <= WIDE else nb * min(INNER_FOLDS, nb - 1)
+    need = min(systems, max(step, nb)) * k * k  # a batch holds at least one held-out block's systems
+    if scratch is None or scratch.size < need:
+        scratch = np.empty(need)
     if k <= WIDE:  # leave each remaining block out in turn
-        first, second = np.triu_indices(nb, 1)
-        sse = np.zeros((nb, nb))
-        step = max(1, BATCH_ENTRIES // max(1, k * k))
-        for start in range(0, first.size, step):
-            b, c = first[start:start + step], second[start:start + step]
-            coef = feasible_coefficients(ne.gram - ne.block_gram[b] - ne.block_gram[c],
-                                         ne.rhs - ne.block_rhs[b] - ne.block_rhs[c], ne.nonneg)
-            sse[b, c] = _block_sse(ne, gg, coef, c)
-            sse[c, b] = _block_sse(ne, gg, coef, b)
-        return np.array([np.sum(sse[b][others != b]) for b in range(nb)])
-    sums: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}  # a group's parts, shared by the held-out blocks
-    for b in range(nb):
-        rest = others[others != b]
-        left = ne.gram - ne.block_gram[b]
-        left_r = ne.rhs - ne.block_rhs[b]
-        groups = np.array_split(rest, min(INNER_FOLDS, rest.size))
-        for grp in groups:
-            if tuple(grp) not in sums:
-                sums[tuple(grp)] = (ne.block_gram[grp].sum(axis=0), ne.block_rhs[grp].sum(axis=0))
-        parts = [sums[tuple(grp)] for grp in groups]
-        g = np.stack([left - pg for pg, _ in parts])
-        r = np.stack([left_r - pr for _, pr in parts])
-        coef = np.repeat(feasible_coefficients(g, r, ne.nonneg), [grp.size for grp in groups], axis=0)
-        out[b] = np.sum(_block_sse(ne, gg, coef, rest))
-    return out
+        coef = np.zeros((nb, nb, k))  # [b, c]: fitted without blocks b and c (b < c here, mirrored below)
+        b = 0
+        while b < nb - 1:  # a batch: the pairs (b, c > b) of consecutive b, at least one b's
+            last, size = b, nb - 1 - b
+            while last + 1 < nb - 1 and size + nb - 2 - last <= step:
+                last += 1
+                size += nb - 1 - last
+            m = scratch[: size * k * k].reshape(size, k, k)
+            r = np.empty((size, k))
+            at = 0
+            for h in range(b, last + 1):  # (G - G_h) - G_c for every c > h: views, no gathered copies
+                np.subtract(left[h], ne.block_gram[h + 1:], out=m[at:at + nb - 1 - h])
+                np.subtract(left_r[h], ne.block_rhs[h + 1:], out=r[at:at + nb - 1 - h])
+                at += nb - 1 - h
+            solved = feasible_coefficients(m, r, ne.nonneg, overwrite=True)
+            at = 0
+            for h in range(b, last + 1):
+                coef[h, h + 1:] = solved[at:at + nb - 1 - h]
+                at += nb - 1 - h
+            b = last + 1
+        coef += coef.transpose(1, 0, 2)  # the fit without b and c serves both (zeros elsewhere: exact)
+        # sse[c, b]: the fit without b and c scored on block c, b = c contributing nothing
+        by_c = coef.transpose(1, 0, 2)
+        sse = gg[:, None] + np.sum(by_c * (np.matmul(by_c, ne.block_gram) - 2.0 * ne.block_rhs[:, None, :]), axis=-1)
+        sse[np.diag_indices(nb)] = 0.0
+        return sse.sum(axis=0)
+    key = id(ne.block_gram)
+    if shared is None or key not in shared:
+        parts = _group_parts(ne, gg)
+        if shared is not None:
+            shared[key] = (ne.block_gram, parts)  # the array kept alive with its id
+    else:
+        parts = shared[key][1]
+    group, part_g, part_r, part_gg = parts
+    folds = group.shape[1]
+    coef = np.zeros(group.shape + (k,))
+    per = max(1, step // folds)  # held-out blocks a batch
+    for start in range(0, nb, per):
+        rows = slice(start, min(nb, start + per))
+        n = rows.stop - start
+        m = scratch[: n * folds * k * k].reshape(n, folds, k, k)
+        np.take(part_g, group[rows], axis=0, out=m, mode="clip")
+        np.subtract(left[rows, None], m, out=m)
+        coef[rows] = feasible_coefficients(m, left_r[rows, None] - part_r[group[rows]], ne.nonneg, overwrite=True)
+    quad = np.zeros(group.shape)  # coef^T G_g coef, one product per group (no batch of its Gram matrices)
+    for g in range(part_gg.size):
+        mine = group == g
+        quad[mine] = np.sum(coef[mine] * (coef[mine] @ part_g[g]), axis=-1)
+    sse = part_gg[group] + quad - 2.0 * np.sum(coef * part_r[group], axis=-1)
+    return sse.sum(axis=1)
 
 
 def cross_validate(
@@ -354,7 +445,7 @@ def cross_validate(
     m = gap.size
     ind = onehot(blocks)
     gg = ind @ (gap * gap)
-    normals = [_normal(d, gap, ind, fit_residual, fit_weight) for d in designs]
+    normals = _normals(designs, gap, ind, fit_residual, fit_weight)
     others = np.arange(nb)
     prediction = np.zeros(m)
     picked = np.zeros(nb, int)
@@ -366,7 +457,10 @@ def cross_validate(
         outer_coef.append(coef)
         outer[s] = _block_sse(ne, gg, coef, others)
     # inner cross-validation errors (S, B): the setting chosen for each held-out block
-    inner = np.stack([_inner_errors(ne, gg) for ne in normals]) if len(normals) > 1 else None
+    inner = None
+    if len(normals) > 1:
+        scratch, shared = np.empty(BATCH_ENTRIES), {}
+        inner = np.stack([_inner_errors(ne, gg, scratch, shared) for ne in normals])
     for b in range(nb):
         best = 0 if inner is None else int(np.argmin(inner[:, b]))
         rows = blocks.index == b

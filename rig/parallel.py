@@ -18,6 +18,11 @@ are interchangeable behind it, chosen by a scheduler address:
   forever for threads that do not exist.  :func:`start_workers` starts the
   server early, so its imports overlap the caller's own work.  Elsewhere
   than Linux workers are spawned.
+* **this process and one helper** (:func:`map_with_helper`): a map whose jobs
+  are taken in turn by this process and by one process of the local pool,
+  the function (with the data bound to it) sent to the helper once -- for
+  a few large jobs that share a lot of data (the diagnosis's candidates),
+  where a pool of its own for every core would pay the imports twice.
 * **a dask.distributed cluster** (``scheduler="tcp://host:port"``, the
   ``[cluster]`` extra): the executor of a :class:`distributed.Client`
   connected to that scheduler.  The jobs run on whatever workers the
@@ -41,6 +46,8 @@ import concurrent.futures
 import contextlib
 import multiprocessing
 import os
+import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import TypeVar
 
@@ -66,6 +73,23 @@ def available_cores() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def other_running_tasks(samples: int = 3, interval_s: float = 0.005) -> int | None:
+    """How many tasks besides this one the machine is running (or has ready to run) now: the least of a
+    few reads of ``/proc/loadavg``'s count, so that a task running only for a moment is not counted; None
+    where the system does not say.  A snapshot, not the last minute's average: the average still counts a
+    command that has just ended."""
+    counts = []
+    for i in range(samples):
+        try:
+            with open("/proc/loadavg", encoding="ascii") as f:
+                counts.append(int(f.read().split()[3].split("/")[0]) - 1)
+        except (OSError, IndexError, ValueError):
+            return None
+        if i + 1 < samples:
+            time.sleep(interval_s)
+    return max(0, min(counts))
 
 
 def default_workers(n_jobs: int, requested: int | None = None) -> int:
@@ -245,3 +269,93 @@ def run_parallel(
                 done.result()  # the first error stops the rest
                 bar.update(size(job_of[done]))
             return [f.result() for f in futures]
+
+
+#: The function a helper process of :func:`map_with_helper` runs (set as it starts).
+_installed: Callable | None = None
+
+
+def _install(function: Callable) -> None:
+    global _installed
+    _installed = function
+
+
+def _started() -> bool:
+    return _installed is not None
+
+
+def _run_installed(item):
+    return _installed(item)
+
+
+def map_with_helper(function: Callable[[T], R], items: Sequence[T], preload: Sequence[str] = ()) -> list[R]:
+    """``[function(item) for item in items]``, the items taken in their order by this process and by one
+    helper process of the local pool (forked from the fork server, which imports ``preload``), each as it
+    becomes free.
+
+    ``function`` (e.g. a :func:`functools.partial` of a module-level function with the jobs' shared data
+    bound) is pickled once, when the helper starts; each item and result then travel alone.  The helper
+    takes its first item once it has started (until then this process takes them all), and a helper
+    that cannot start leaves them all to this process.  The results come in the order of the items and
+    do not depend on who computed them, provided both processes compute alike (the helper has
+    :data:`WORKER_ENV`: one BLAS thread, as the caller should have too).  An error is raised as the serial
+    loop would raise it: the first failing item's, once the items before it are done; Ctrl-C ends the
+    helper at once.
+    """
+    items = list(items)
+    if len(items) < 2:
+        return [function(item) for item in items]
+    outcomes: list[tuple[bool, object] | None] = [None] * len(items)
+    lock = threading.Lock()
+    state = {"next": 0, "stop": False}
+
+    def claim() -> int | None:
+        with lock:
+            if state["stop"] or state["next"] >= len(items):
+                return None
+            state["next"] += 1
+            return state["next"] - 1
+
+    def record(i: int, ok: bool, value: object) -> None:
+        with lock:
+            outcomes[i] = (ok, value)
+            state["stop"] = state["stop"] or not ok
+
+    with worker_environment():
+        pool = concurrent.futures.ProcessPoolExecutor(1, mp_context=worker_context(preload), initializer=_install,
+                                                      initargs=(function,))
+
+    def helper() -> None:
+        try:
+            pool.submit(_started).result()
+        except BaseException:  # noqa: BLE001 -- it could not start: this process takes every item
+            return
+        while (i := claim()) is not None:
+            try:
+                record(i, True, pool.submit(_run_installed, items[i]).result())
+            except BaseException as exc:  # noqa: BLE001 -- the job's error (or a broken pool), raised below in order
+                record(i, False, exc)
+
+    thread = threading.Thread(target=helper, name="map_with_helper", daemon=True)
+    try:
+        thread.start()
+        while (i := claim()) is not None:
+            try:
+                record(i, True, function(items[i]))
+            except Exception as exc:  # noqa: BLE001 -- raised below, after any earlier item's error
+                record(i, False, exc)
+        thread.join()
+    except BaseException:  # Ctrl-C: the helper's job is not waited for
+        with lock:
+            state["stop"] = True
+        _terminate(pool)
+        raise
+    pool.shutdown(wait=True)
+    results = []
+    for outcome in outcomes:
+        assert outcome is not None  # only items after a failed one are left out, and that one is raised first
+        ok, value = outcome
+        if not ok:
+            raise value
+        results.append(value)
+    return results

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any, Callable
 
 import numpy as np
@@ -525,26 +526,43 @@ def _fit_weight(noise: NoiseEstimate | None, fit_runs: tuple[Run, ...], used: tu
 
 
 def _held_out_candidates(cands: list[Candidate], base: BaseFit, ctx: Context, scored: _Scored,
-                         reference: _Reference, floor_rms: float | None, fit_weight: float, unit: str
-                         ) -> tuple[list[_Assessed], list[tuple[str, str]]]:
+                         reference: _Reference, floor_rms: float | None, fit_weight: float, unit: str,
+                         mapper: Callable | None = None) -> tuple[list[_Assessed], list[tuple[str, str]]]:
     """Every candidate that can be assessed on these runs fitted jointly with the base model and
     scored on held-out check blocks (:func:`_assess`), in library order; and ``(name, why)`` for each
-    of the others."""
+    of the others.
+
+    The candidates are independent: ``mapper`` (a callable like :func:`map`, results in the order of its
+    items; the caller's, e.g. one that shares them out between processes) runs :func:`held_out_candidate`
+    on each, with everything else bound once (:func:`functools.partial`).  None: one after the other here.
+    They are handed out most settings first (a drift's 12 or 24 before a single column), so that
+    processes taking them in turn finish together; the outcomes are then put back in library order."""
+    job = partial(held_out_candidate, base=base, ctx=ctx, scored=scored, reference=reference, floor_rms=floor_rms,
+                  fit_weight=fit_weight, unit=unit)
+    order = sorted(range(len(cands)), key=lambda i: -len(cands[i].settings_grid()))
+    outcomes = dict(zip(order, (mapper or map)(job, [cands[i] for i in order])))
     assessed, not_assessed = [], []
-    for cand in cands:
-        why_not = cand.applicable(ctx.runs)
-        if why_not is not None:
-            not_assessed.append((cand.name, f"not applicable: {why_not}"))
-            continue
-        grid_settings = cand.settings_grid()
-        cols_list = _columns(cand, ctx, grid_settings)
-        reason = _assessable(cand, cols_list[0], scored, len(base.fit_runs))
-        if reason is not None:
-            not_assessed.append((cand.name, reason))
-            continue
-        assessed.append(_assess(cand, grid_settings, cols_list, base, ctx, scored, reference, floor_rms, fit_weight,
-                                unit))
+    for outcome in (outcomes[i] for i in range(len(cands))):
+        if isinstance(outcome, _Assessed):
+            assessed.append(outcome)
+        else:
+            not_assessed.append(outcome)
     return assessed, not_assessed
+
+
+def held_out_candidate(cand: Candidate, *, base: BaseFit, ctx: Context, scored: _Scored, reference: _Reference,
+                       floor_rms: float | None, fit_weight: float, unit: str) -> "_Assessed | tuple[str, str]":
+    """One candidate of :func:`_held_out_candidates`: assessed (:func:`_assess`), or ``(name, why)`` it cannot
+    be.  Depends on nothing but its arguments (a module-level function: it may run in another process)."""
+    why_not = cand.applicable(ctx.runs)
+    if why_not is not None:
+        return cand.name, f"not applicable: {why_not}"
+    grid_settings = cand.settings_grid()
+    cols_list = _columns(cand, ctx, grid_settings)
+    reason = _assessable(cand, cols_list[0], scored, len(base.fit_runs))
+    if reason is not None:
+        return cand.name, reason
+    return _assess(cand, grid_settings, cols_list, base, ctx, scored, reference, floor_rms, fit_weight, unit)
 
 
 def _assess(cand: Candidate, grid_settings: list[dict[str, float]], cols_list: list[Columns], base: BaseFit,
@@ -556,7 +574,14 @@ def _assess(cand: Candidate, grid_settings: list[dict[str, float]], cols_list: l
     gap = scored.gap
     parts = _shared(cols_list, lambda c: _effective(base, scored, c))
     visible, note = _visible(cand, [p[0] for p in parts], [p[2] for p in parts], cols_list, floor_rms, unit)
-    designs = [_with_reference(e, a, c, reference.recal) for (e, a, _), c in zip(parts, cols_list)]
+    # settings that share their columns (a drift's roughness weights, see _columns) share one design's arrays
+    # but for the weight: cross-validation then forms the data part of their normal equations once
+    made: dict[int, Design] = {}
+    designs = []
+    for (e, a, _), c in zip(parts, cols_list):
+        if id(c.values) not in made:
+            made[id(c.values)] = _with_reference(e, a, c, reference.recal)
+        designs.append(replace(made[id(c.values)], smoothing=c.smoothing))
     cv = cross_validate(gap, scored.blocks, designs, base.residual, fit_weight)
     best = cv.full_setting
     after = gap - cv.prediction
@@ -716,6 +741,8 @@ def diagnose(
     settings: DiagnosisSettings | None = None,
     candidates: list[Candidate] | None = None,
     monitors: list[np.ndarray] | None = None,
+    *,
+    mapper: Callable | None = None,
 ) -> Diagnosis:
     """Diagnose the gap between equation (22) fitted on ``fit_runs`` and the ``check_runs``.
 
@@ -723,15 +750,17 @@ def diagnose(
     memory state, e.g. a FORC file's calibration points), a further estimate of the measurement noise.
     Thousands of small solves and products: on one BLAS thread for a small grid (:mod:`identify.threads`;
     at L = 30 on a loaded two-core machine the library's two threads took 8 times the CPU and 15 times
-    the wall time).
+    the wall time).  ``mapper``: how the independent candidates are run (a callable like :func:`map`, e.g.
+    the caller's process pool's; None: one after the other here); the result does not depend on it as long
+    as it computes alike (same BLAS threads).
     """
     with blas_threads_for(grid.n_cells + 2):
-        return _diagnose(fit_runs, check_runs, grid, settings, candidates, monitors)
+        return _diagnose(fit_runs, check_runs, grid, settings, candidates, monitors, mapper)
 
 
 def _diagnose(fit_runs: list[Run] | tuple[Run, ...], check_runs: list[Run] | tuple[Run, ...], grid: Grid,
               settings: DiagnosisSettings | None, candidates: list[Candidate] | None,
-              monitors: list[np.ndarray] | None) -> Diagnosis:
+              monitors: list[np.ndarray] | None, mapper: Callable | None = None) -> Diagnosis:
     """:func:`diagnose`'s stages."""
     settings = settings or DiagnosisSettings()
     fit_runs, check_runs = tuple(fit_runs), tuple(check_runs)
@@ -754,7 +783,7 @@ def _diagnose(fit_runs: list[Run] | tuple[Run, ...], check_runs: list[Run] | tup
 
     # which: the candidates on held-out blocks, alone and a second beside the best; where: the residual binned
     assessed, not_assessed = _held_out_candidates(cands, base, ctx, scored, reference, floor.rms_um, fit_weight,
-                                                  output_unit)
+                                                  output_unit, mapper)
     pair_with, pairs_after = _second_effect(assessed, base, ctx, scored, reference, fit_weight)
     boot = _bootstrap(assessed, reference, scored.blocks, settings)
     where = bin_residuals(scored.features, -reference.residual, floor.per_point if floor.kind == "measured" else None,
