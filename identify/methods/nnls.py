@@ -156,14 +156,7 @@ def _nnls_on_factor(operator: RegressorOperator, rows: np.ndarray, y: np.ndarray
     columns = np.asfortranarray(np.hstack([r, -r[:, n_nonneg:]]))  # [G, F, -F] on the factor: P x (P + free)
     result = lawson_hanson(matvec, rmatvec, P + free, z, tol=tol, max_iter=50 * (P + free),
                            column=lambda j: columns[:, j])
-    w = result.x[:P].copy()
-    w[n_nonneg:] -= result.x[P:]
-    w *= scale
-    residual = operator.matvec(w)[rows] - y
-    return w, {
-        "residual_norm": float(np.linalg.norm(residual)), "reduced": True, "path": "gram factor lh",
-        "entered": result.entered, "removed": result.removed, "rejected": result.rejected,
-    }
+    return _unsplit(result, P, n_nonneg, scale, operator, rows, y, reduced=True, path="gram factor lh")
 
 
 def _nnls_on_operator(operator: RegressorOperator, rows: np.ndarray, y: np.ndarray, n_nonneg: int):
@@ -181,12 +174,18 @@ def _nnls_on_operator(operator: RegressorOperator, rows: np.ndarray, y: np.ndarr
     matvec, rmatvec = _split_products(lambda w: operator.matvec(w)[rows], rows_rmatvec, P, n_nonneg)
     tol = _gradient_tol(operator, rows, b, n_nonneg)
     result = lawson_hanson(matvec, rmatvec, P + free, b, tol=tol, max_iter=50 * (P + free))
+    return _unsplit(result, P, n_nonneg, scale, operator, rows, y, reduced=False, path="operator")
+
+
+def _unsplit(result, P: int, n_nonneg: int, scale: float, operator: RegressorOperator, rows: np.ndarray,
+             y: np.ndarray, *, reduced: bool, path: str) -> tuple[np.ndarray, dict]:
+    """The weights ``(P,)`` from Lawson-Hanson's answer on ``[G, F, -F]`` (scaled by ``scale``), and the info."""
     w = result.x[:P].copy()
     w[n_nonneg:] -= result.x[P:]
     w *= scale
     residual = operator.matvec(w)[rows] - y
     return w, {
-        "residual_norm": float(np.linalg.norm(residual)), "reduced": False, "path": "operator",
+        "residual_norm": float(np.linalg.norm(residual)), "reduced": reduced, "path": path,
         "entered": result.entered, "removed": result.removed, "rejected": result.rejected,
     }
 
