@@ -304,6 +304,16 @@ def _everett_terms_loop(curve: MemoryCurve, xs: np.ndarray) -> tuple[np.ndarray,
     )
 
 
+def _reach_back(table: list[np.ndarray], end: np.ndarray, keep) -> np.ndarray:
+    """For each ``end`` ``(k,)``, the earliest ``start <= end`` with ``keep`` true of the sparse ``table``'s
+    blocks over all of ``[start, end)`` (``table[j][i]`` summarises ``[i, i + 2^j)``), by halving steps."""
+    for j in range(len(table) - 1, -1, -1):
+        start = end - (1 << j)
+        ok = start >= 0
+        end = np.where(ok & keep(table[j][np.where(ok, start, 0)]), start, end)
+    return end
+
+
 def _sparse_table(values: np.ndarray, op) -> list[np.ndarray]:
     """``table[j][i] = op`` over ``values[i : i + 2**j]`` (``len(values) - 2**j + 1`` entries at level ``j``)."""
     table = [values]
@@ -349,13 +359,7 @@ def _everett_terms_vectorised(curve: MemoryCurve, xs: np.ndarray) -> tuple[np.nd
     # a fall's corner: A is the largest input since the last one below y[f] (a corner with b = y[f] is remade)
     fall = np.flatnonzero((y[t] < y[:-1]) & created) + 1
     level_y = y[fall]
-    end = fall.copy()
-    for j in range(len(low) - 1, -1, -1):
-        width = 1 << j
-        start = end - width
-        ok = start >= 0
-        block = low[j][np.where(ok, start, 0)]
-        end = np.where(ok & (block >= level_y), start, end)
+    end = _reach_back(low, fall, lambda block: block >= level_y)
     span = fall - end  # at least 1: the input before a fall is above it
     level = np.floor(np.log2(span)).astype(np.int64)
     peak = np.empty(fall.size)
@@ -375,13 +379,7 @@ def _everett_terms_vectorised(curve: MemoryCurve, xs: np.ndarray) -> tuple[np.nd
     death[fall] = pos
     # predecessor: the latest earlier corner still alive after step t
     latest = _sparse_table(death, np.maximum)
-    end = t.copy()
-    for j in range(len(latest) - 1, -1, -1):
-        width = 1 << j
-        start = end - width
-        ok = start >= 0
-        block = latest[j][np.where(ok, start, 0)]
-        end = np.where(ok & (block <= t), start, end)
+    end = _reach_back(latest, t, lambda block: block <= t)
     pred = end - 1
     corner_a = np.zeros(N)
     corner_a[t] = a
