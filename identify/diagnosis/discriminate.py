@@ -115,15 +115,17 @@ def as_plan(effect, run_name: str, plan_name: str = "plan"):
     return type(effect)({**effect.params, "runs": {**runs, plan_name: runs[run_name]}})
 
 
-def _refit_columns(rival: Rival, base: np.ndarray, own: np.ndarray, run: Run) -> np.ndarray:
-    """What ``rival`` re-fits on ``run`` ``(n, k)``: its effect's size, the bias, the thermal term, its nuisance."""
+def _refit_columns(rival: Rival, base: np.ndarray, own: np.ndarray, run: Run,
+                   nuisance: np.ndarray | None = None) -> np.ndarray:
+    """What ``rival`` re-fits on ``run`` ``(n, k)``: its effect's size, the bias, the thermal term, its nuisance
+    (``nuisance``: ``rival.nuisance(run)`` when already built)."""
     cols = [np.ones(run.n), run.inputs]
     size = own - base
     if np.any(np.abs(size) > 0):
         cols.append(size)
     out = np.column_stack(cols)
     if rival.nuisance is not None:
-        out = np.hstack([out, rival.nuisance(run)])
+        out = np.hstack([out, rival.nuisance(run) if nuisance is None else nuisance])
     return out
 
 
@@ -147,16 +149,28 @@ def separation(rivals: list[Rival], base: PreisachModel, run: Run, sigma: float)
         preds = [[m.predict_run(run) for m in r.models] for r in rivals]
     except EffectNotApplicable:  # a plan too short for an effect to act (one point: no time)
         return 0.0, {f"{a.name}|{b.name}": 0.0 for a, b in combinations(rivals, 2)}
+    nuisances: dict[int, np.ndarray] = {}
+    refits: dict[tuple[int, int], np.ndarray] = {}
+
+    def refit(i: int, m: int) -> np.ndarray:
+        """Rival ``i``'s re-fit columns with its parameter set ``m``: built once per run (a drift's nuisance,
+        secants of the whole run, is most of a design's time), whichever pairs ask for them."""
+        if (i, m) not in refits:
+            if rivals[i].nuisance is not None and i not in nuisances:
+                nuisances[i] = rivals[i].nuisance(run)
+            refits[i, m] = _refit_columns(rivals[i], f0, preds[i][m], run, nuisances.get(i))
+        return refits[i, m]
+
     pairs = {}
     for (i, a), (j, b) in combinations(enumerate(rivals), 2):
         worst = np.inf
-        for fa in preds[i]:
-            for fb in preds[j]:
+        for ma, fa in enumerate(preds[i]):
+            for mb, fb in enumerate(preds[j]):
                 d = fa - fb
                 # the base model alone is nested in any rival: only its own re-fit can reject it (the
                 # bigger model re-fits its size to zero and reproduces it exactly)
-                s_ab = _unexplained(d, _refit_columns(b, f0, fb, run)) if not _nested(b, a) else np.inf
-                s_ba = _unexplained(d, _refit_columns(a, f0, fa, run)) if not _nested(a, b) else np.inf
+                s_ab = _unexplained(d, refit(j, mb)) if not _nested(b, a) else np.inf
+                s_ba = _unexplained(d, refit(i, ma)) if not _nested(a, b) else np.inf
                 worst = min(worst, s_ab, s_ba)
         pairs[f"{a.name}|{b.name}"] = float(worst / sigma)
     return (min(pairs.values()) if pairs else 0.0), pairs
