@@ -112,6 +112,11 @@ class PreisachModel:
         """
         return forward.predict(self, inputs, initial, history)
 
+    def predict_many(self, inputs: np.ndarray) -> np.ndarray:
+        """:meth:`predict` of each row of ``inputs`` ``(k, n)`` (V) from negative saturation, ``(k, n)`` (um):
+        the same numbers, the replays batched (:func:`identify.forward.predict_many`)."""
+        return forward.predict_many(self, inputs)
+
     def predict_run(self, run: Any) -> np.ndarray:
         """The reading (um) at every point of ``run`` (an :class:`identify.runs.Run`), ``(n,)``, with
         the model's effects, from negative saturation.

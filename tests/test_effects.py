@@ -404,3 +404,25 @@ def test_first_point_terms_the_readings_cannot_tell_apart_are_not_fitted():
     base = fit_with_effects(GRID, [fit], "ls", [])
     err = validate_run(joint.model, check).rmse
     assert err < 1.5 * validate_run(base.model, check).rmse
+
+
+@pytest.mark.parametrize("form", ["shift", "gain"])
+def test_ambient_drift_secants_are_one_replay_per_spline_to_the_bit(form):
+    # the secants are replayed in one batch (Context.responses); each must be the one-spline-at-a-time
+    # secant exactly, so a diagnosis or a discriminating design built on them does not change
+    from identify.effects import Context
+    from identify.effects.ambient_drift import SECANT, AmbientDrift, moved_input
+
+    v = 1.0 + 0.75 * V
+    run = run_of(np.zeros(v.size), v=v)
+    ctx = Context.of_model(TRUE, [run])
+    drift = AmbientDrift({**_drift_params(), "form": form})
+    cols = drift.nuisance_columns(ctx, {"smoothing": 0.0})
+    basis = splines_at(time_knots(run), T)
+    step = SECANT * (GRID.step ** 2 if form == "shift" else GRID.step / (GRID.v_max - GRID.v_min))
+    d = drift.drift(run)
+    assert np.any(d)
+    base = ctx.response(0, v)
+    one_by_one = np.column_stack([(ctx.response(0, moved_input(v, d + step * basis[:, j], form)) - base) / step
+                                  for j in range(basis.shape[1])])
+    assert np.array_equal(cols.values[0], one_by_one)

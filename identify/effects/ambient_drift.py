@@ -120,13 +120,12 @@ class AmbientDrift(Effect):
         run = ctx.runs[i]
         x = ctx.inputs[i]
         before = ctx.thermal[i]  # the input before this effect: the heater voltage, or the lagged one
-        base = ctx.response(i, x)
         step = SECANT * (ctx.grid.step ** 2 if form == "shift" else ctx.grid.step / (ctx.grid.v_max - ctx.grid.v_min))
-        out = np.empty(basis.shape)
         d = self.drift(run)
-        for j in range(basis.shape[1]):
-            out[:, j] = (ctx.response(i, moved_input(before, d + step * basis[:, j], form)) - base) / step
-        return out
+        # the current input and, per spline, the input moved by it: one batched replay, not one per spline
+        moved = np.vstack([x[None, :], moved_input(before[None, :], d[None, :] + step * basis.T, form)])
+        out = ctx.responses(i, moved)
+        return np.ascontiguousarray(((out[1:] - out[0]) / step).T)
 
     def coefficients(self, ctx: Context) -> np.ndarray:
         runs = (self.params or {}).get("runs", {})

@@ -75,6 +75,9 @@ class HostModel(Equation22, Protocol):
                 history: np.ndarray | None = None) -> np.ndarray:
         """Equation (22)'s output (um) for an input sequence (V), ``(n,)``, the effects left out."""
 
+    def predict_many(self, inputs: np.ndarray) -> np.ndarray:
+        """:meth:`predict` of each row of ``inputs`` ``(k, n)`` (V) from negative saturation, ``(k, n)``."""
+
     def without_effects(self) -> "HostModel":
         """This model's equation (22) part."""
 
@@ -170,6 +173,18 @@ class Context:
         x = np.asarray(x, dtype=float)
         part = self.hysteresis(x) if self.hysteresis is not None else m.predict(x) - m.c_d * x
         return part + m.c_d * np.asarray(th, dtype=float)
+
+    def responses(self, i: int, xs: np.ndarray) -> np.ndarray:
+        """:meth:`response` on run ``i`` for each row of ``xs`` ``(k, n_i)`` (the thermal term as in this
+        context), ``(k, n_i)``: the same numbers, the model's replays batched when no cached
+        ``hysteresis`` is given (:meth:`HostModel.predict_many`)."""
+        m = self.model
+        xs = np.asarray(xs, dtype=float)
+        if self.hysteresis is None:
+            part = m.predict_many(xs) - m.c_d * xs
+        else:
+            part = np.array([self.hysteresis(x) for x in xs]).reshape(xs.shape)
+        return part + m.c_d * np.asarray(self.thermal[i], dtype=float)
 
 
 def start_of(model: "HostModel", initial_V: float) -> tuple[float, float]:
