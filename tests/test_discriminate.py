@@ -90,6 +90,74 @@ def test_the_design_keeps_the_limits_and_reports_its_own_separation():
     assert np.array_equal(same.v_V, plan.v_V) and np.array_equal(same.dwell_s, plan.dwell_s)
 
 
+def _reference_separation(rivals, base, run, sigma):
+    """The separation as first written: each pair re-builds both rivals' re-fit columns (a drift's nuisance
+    once per pair it is in), each drift secant its own replay."""
+    from itertools import combinations
+
+    from identify.diagnosis.discriminate import _nested, _refit_columns, _unexplained
+
+    f0 = base.predict(run.inputs)
+    preds = [[m.predict_run(run) for m in r.models] for r in rivals]
+    pairs = {}
+    for (i, a), (j, b) in combinations(enumerate(rivals), 2):
+        worst = np.inf
+        for fa in preds[i]:
+            for fb in preds[j]:
+                d = fa - fb
+                s_ab = _unexplained(d, _refit_columns(b, f0, fb, run)) if not _nested(b, a) else np.inf
+                s_ba = _unexplained(d, _refit_columns(a, f0, fa, run)) if not _nested(a, b) else np.inf
+                worst = min(worst, s_ab, s_ba)
+        pairs[f"{a.name}|{b.name}"] = float(worst / sigma)
+    return min(pairs.values()), pairs
+
+
+def _reference_secants(self, ctx, i, basis, form):
+    """An ambient drift's secants as first written: one replay of the run per spline."""
+    from identify.effects.ambient_drift import SECANT, moved_input
+
+    run, x, before = ctx.runs[i], ctx.inputs[i], ctx.thermal[i]
+    base = ctx.response(i, x)
+    step = SECANT * (ctx.grid.step ** 2 if form == "shift" else ctx.grid.step / (ctx.grid.v_max - ctx.grid.v_min))
+    out = np.empty(basis.shape)
+    d = self.drift(run)
+    for j in range(basis.shape[1]):
+        out[:, j] = (ctx.response(i, moved_input(before, d + step * basis[:, j], form)) - base) / step
+    return out
+
+
+def test_the_design_with_a_drift_rival_is_the_reference_designs_to_the_bit(monkeypatch):
+    """The design's shortcuts (each rival's re-fit columns built once per candidate plan, a drift's secants
+    replayed in one batch) must design the same plan with the same separations as the plain computation."""
+    import identify.diagnosis.discriminate as disc
+    from identify.effects import Context
+    from identify.effects.ambient_drift import AmbientDrift
+
+    base = _base()
+    knots = [0.0] * 3 + list(np.linspace(0.0, 3000.0, 6)) + [3000.0] * 3
+    waves = np.arange(len(knots) - 4)
+
+    def rival(name, coef, form):
+        drift = AmbientDrift({"runs": {"plan": {"knots_s": knots, "coefficients": list(coef)}}, "form": form})
+
+        def nuisance(run):
+            return np.hstack(drift.nuisance_columns(Context.of_model(base, (run,)),
+                                                    {"knot_s": 500.0, "smoothing": 1.0}).values)
+
+        return Rival(name, (replace(base, effects=(drift,)),), nuisance)
+
+    # two drifts (each re-fits its own nuisance against the other) and a cell the base model lacks
+    rivals = [rival("shift", 0.05 * np.sin(waves), "shift"), rival("gain", 0.02 * np.cos(waves), "gain"),
+              Rival("cell", (_moved(base, 7, -0.04),))]
+    fast = design(rivals, base, 0.0, 4.0, SIGMA, points=40, rig_time_s=3000.0, seed=2)
+    monkeypatch.setattr(disc, "separation", _reference_separation)
+    monkeypatch.setattr(AmbientDrift, "_secants", _reference_secants)
+    slow = design(rivals, base, 0.0, 4.0, SIGMA, points=40, rig_time_s=3000.0, seed=2)
+    assert fast.points > 10 and min(fast.pairs.values()) > 0.1
+    assert np.array_equal(fast.v_V, slow.v_V) and np.array_equal(fast.dwell_s, slow.dwell_s)
+    assert fast.separation == slow.separation and fast.pairs == slow.pairs
+
+
 # ----------------------------------------------------------------------------- the command line
 @pytest.fixture(scope="module")
 def creep_runs(tmp_path_factory):
