@@ -59,13 +59,19 @@ def run_once(argv: list[str], cwd: Path) -> tuple[float, float]:
     other work it stays close to the wall time the same command takes on a
     quiet one.  A failure stops the benchmark.
     """
+    wall, cpu, _ = run_captured(argv, cwd)
+    return wall, cpu
+
+
+def run_captured(argv: list[str], cwd: Path) -> tuple[float, float, str]:
+    """:func:`run_once` with what the process printed (its standard output)."""
     cpu0 = _children_cpu()
     start = time.perf_counter()
-    done = subprocess.run(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    done = subprocess.run(argv, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     elapsed = time.perf_counter() - start
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(argv)} failed ({done.returncode}): {done.stderr.strip()}")
-    return elapsed, _children_cpu() - cpu0
+    return elapsed, _children_cpu() - cpu0, done.stdout
 
 
 def cold(commands: dict[str, list[str]], repeats: int, cwd: Path) -> dict[str, list[tuple[float, float]]]:

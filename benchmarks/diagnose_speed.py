@@ -9,8 +9,8 @@ Cases (the figures the evidence-bound diagnosis and the discriminating run are h
   simulated bench with a creep on (``rig.diagnosis.simulate``); target 10 s;
 * ``discriminate``: the same with ``--with thermal_lag,joule_power
   --discriminate`` (two rivals, the plan designed on top of the diagnosis);
-  the design's own wall time is read from the JSON (``design_s``); target
-  20 s for the design;
+  the design's own wall time is read from the JSON (``design_s``) of every
+  cold and warm run (medians); target 20 s for the design;
 * ``diagnose FORC``: the shared FORC file (``../shared/data/forc/``), even
   curves fitted and odd held out at L = 30 (about 30,000 points); target 30 s;
 * ``identify FORC --with interaction``: ``rig identify --levels 30 --curves
@@ -40,22 +40,29 @@ import tempfile
 import time
 from pathlib import Path
 
-from cold_start import rig_executable, run_once  # beside this file: run it as python benchmarks/diagnose_speed.py
+from cold_start import rig_executable, run_captured, run_once  # beside this file: run it as python benchmarks/diagnose_speed.py
 
 FORC = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "forc" / "MD00-2361.forc"
 
 
-def _warm(argv: list[str], repeats: int) -> float:
+def _warm(argv: list[str], repeats: int) -> tuple[float, list[str]]:
+    """The median wall time of ``repeats`` runs in this process after a first (s), and what each printed."""
     from rig.cli import main
 
-    times = []
+    times, printed = [], []
     for _ in range(repeats + 1):
         out = io.StringIO()
         start = time.perf_counter()
         with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
             main(argv)
         times.append(time.perf_counter() - start)
-    return statistics.median(times[1:])
+        printed.append(out.getvalue())
+    return statistics.median(times[1:]), printed[1:]
+
+
+def _design(printed: str) -> dict:
+    """The ``discriminate`` object of a ``rig diagnose --json`` run's output."""
+    return json.loads(printed)["discriminate"]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -94,23 +101,25 @@ def main(argv: list[str] | None = None) -> int:
     print(f"load average before: {os.getloadavg()[0]:.2f}", flush=True)
     rows = {}
     for name, (cmd, target) in cases.items():
-        cold = [run_once(rig_executable() + cmd, work) for _ in range(args.repeats)]
+        cold = [run_captured(rig_executable() + cmd, work) for _ in range(args.repeats)]
         wall = statistics.median(c[0] for c in cold)
         cpu = statistics.median(c[1] for c in cold)
-        warm = _warm(cmd, max(1, args.repeats - 1))
+        warm, printed = _warm(cmd, max(1, args.repeats - 1))
         rows[name] = {"cold_wall_s": wall, "cold_cpu_s": cpu, "warm_s": warm, "target_s": target}
+        if name == "discriminate":
+            designs = {"cold": [_design(c[2]) for c in cold], "warm": [_design(p) for p in printed]}
         print(f"{name:36s} cold {wall:7.2f} s (cpu {cpu:6.2f} s)   warm "
               f"{'-' if warm is None else f'{warm:7.2f} s'}   target {'-' if target is None else f'{target:g} s'}",
               flush=True)
     if "discriminate" in cases:
-        out = io.StringIO()
-        from rig.cli import main as rig_main
-
-        with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
-            rig_main(cases["discriminate"][0])
-        disc = json.loads(out.getvalue())["discriminate"]
-        rows["design"] = {"design_s": disc.get("design_s"), "points": disc.get("points"), "target_s": 20.0}
-        print(f"{'design (in the warm run)':36s} {disc.get('design_s')} s, {disc.get('points')} points, "
+        disc = designs["warm"][-1]
+        times = {k: [d.get("design_s") for d in v] for k, v in designs.items()}
+        med = {k: statistics.median(t) if None not in t else None for k, t in times.items()}
+        rows["design"] = {"design_s": med["cold"], "warm_design_s": med["warm"], "runs_s": times,
+                          "between": disc.get("between"), "points": disc.get("points"),
+                          "predicted_separation": disc.get("predicted_separation"), "target_s": 20.0}
+        print(f"{'design (median of the cold runs)':36s} {med['cold']} s, warm {med['warm']} s (runs: cold "
+              f"{times['cold']}, warm {times['warm']}); {disc.get('between')}, {disc.get('points')} points, "
               f"separation {disc.get('predicted_separation')}   target 20 s"
               + ("" if disc.get("plan") else f"   (no plan: {disc.get('reason')})"))
     print(f"load average after: {os.getloadavg()[0]:.2f}")
