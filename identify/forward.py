@@ -21,6 +21,7 @@ from typing import Protocol
 
 import numpy as np
 
+from .errors import IdentifyError
 from .everett import everett, everett_increments, everett_table, prefix_sums
 from .grid import WALL_TOLERANCE, Grid
 from .memory import InitialState, MemoryCurve
@@ -66,7 +67,7 @@ def predict(
     return 2.0 * phi - float(np.sum(model.density)) + model.mu0 + model.c_d * v
 
 
-#: Points :func:`predict_many` replays at once (its sparse increments take about 200 bytes a point).
+#: Points :func:`predict_many` replays at once (its sparse increments keep about 250 bytes a point).
 MANY_POINTS = 20_000
 
 
@@ -85,7 +86,7 @@ def predict_many(model: Equation22, inputs: np.ndarray) -> np.ndarray:
     """
     v = np.asarray(inputs, dtype=float)
     if v.ndim != 2:
-        raise ValueError(f"predict_many takes a (k, n) array of input sequences, got shape {v.shape}")
+        raise IdentifyError(f"predict_many takes a (k, n) array of input sequences, got shape {v.shape}")
     check_inputs(v.ravel())
     grid = model.grid
     k, n = v.shape
