@@ -40,7 +40,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from cold_start import rig_executable, run_captured, run_once  # beside this file: run it as python benchmarks/diagnose_speed.py
+# beside this file: run it as python benchmarks/diagnose_speed.py
+from cold_start import rig_executable, run_captured, run_once
 
 FORC = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "forc" / "MD00-2361.forc"
 
