@@ -21,7 +21,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .everett import everett, everett_increments, everett_table, prefix_sums
+from .everett import everett, everett_changes, everett_table, prefix_sums
 from .grid import WALL_TOLERANCE, Grid
 from .memory import InitialState, MemoryCurve
 from .regressor import check_inputs, initial_curve
@@ -61,8 +61,8 @@ def predict(
     """
     v = check_inputs(inputs)
     grid = model.grid
-    increments = everett_increments(grid, grid.coordinates(v), initial_curve(grid, initial, history))
-    phi = np.cumsum(increments @ prefix_sums(grid, model.density))
+    phi = np.cumsum(everett_changes(grid, grid.coordinates(v), initial_curve(grid, initial, history),
+                                    prefix_sums(grid, model.density)))
     return 2.0 * phi - float(np.sum(model.density)) + model.mu0 + model.c_d * v
 
 
