@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .effects import Effect
-from .effects.joint import fit_with_effects
+from .effects.joint import Mapper, fit_with_effects
 from .errors import IdentifyError
 from .grid import Grid
 from .memory import InitialState
@@ -148,6 +148,7 @@ def fit_run(
     settings: dict[str, Any] | None = None,
     curves: np.ndarray | None = None,
     progress: Callable[[str], None] | None = None,
+    mapper: Mapper | None = None,
 ) -> FitReport:
     """Identify a model with ``effects`` (unfitted :class:`identify.effects.Effect` instances; none: equation
     (22) alone) from one recorded :class:`~identify.runs.Run`: its measured points (or only ``rows``, sorted
@@ -158,7 +159,8 @@ def fit_run(
     run's other measured outputs stay visible to the methods that use the order of all outputs,
     ``cs_order``); with effects the density is fitted jointly with their terms (:mod:`identify.effects.joint`) and
     ``info`` adds ``base_rmse`` (the same fit without the effects, um), ``effect_settings`` and the number
-    of linear ``solves``.
+    of linear ``solves``; ``mapper`` runs the effects' grid search's independent jobs (see
+    :func:`~identify.effects.joint.fit_with_effects`).
     """
     chosen = list(effects)
     for e in chosen:
@@ -170,7 +172,8 @@ def fit_run(
     if rows is not None:
         run = run.keeping(rows)
     with blas_threads_for(grid.n_cells + 2):  # the joint fit's many solves and products, on one thread when small
-        joint = fit_with_effects(grid, [run], method, chosen, thermal_term=thermal_term, settings=settings)
+        joint = fit_with_effects(grid, [run], method, chosen, thermal_term=thermal_term, settings=settings,
+                                 mapper=mapper)
     return FitReport(
         method=method,
         settings=dict(joint.method_settings),

@@ -22,7 +22,7 @@ from typing import Protocol
 import numpy as np
 
 from .errors import IdentifyError
-from .everett import everett, everett_increments, everett_table, prefix_sums
+from .everett import everett, everett_changes, everett_table, prefix_sums
 from .grid import WALL_TOLERANCE, Grid
 from .memory import InitialState, MemoryCurve
 from .regressor import check_inputs, initial_curve
@@ -62,12 +62,12 @@ def predict(
     """
     v = check_inputs(inputs)
     grid = model.grid
-    increments = everett_increments(grid, grid.coordinates(v), initial_curve(grid, initial, history))
-    phi = np.cumsum(increments @ prefix_sums(grid, model.density))
+    phi = np.cumsum(everett_changes(grid, grid.coordinates(v), initial_curve(grid, initial, history),
+                                    prefix_sums(grid, model.density)))
     return 2.0 * phi - float(np.sum(model.density)) + model.mu0 + model.c_d * v
 
 
-#: Points :func:`predict_many` replays at once (its sparse increments keep about 250 bytes a point).
+#: Points :func:`predict_many` replays at once (the replay's terms keep a few hundred bytes a point).
 MANY_POINTS = 20_000
 
 
@@ -97,8 +97,8 @@ def predict_many(model: Equation22, inputs: np.ndarray) -> np.ndarray:
     rows = max(1, MANY_POINTS // (n + 1))
     for r in range(0, k, rows):
         part = xs[r:r + rows]
-        increments = everett_increments(grid, part.ravel(), MemoryCurve(grid.levels, "negative"))
-        steps[r:r + rows] = (increments @ p).reshape(part.shape)
+        changes = everett_changes(grid, part.ravel(), MemoryCurve(grid.levels, "negative"), p)
+        steps[r:r + rows] = changes.reshape(part.shape)
     phi = np.cumsum(steps[:, 1:], axis=1)
     return 2.0 * phi - float(np.sum(model.density)) + model.mu0 + model.c_d * v
 

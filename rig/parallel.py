@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import contextlib
+import functools
 import multiprocessing
 import os
 import threading
@@ -359,3 +360,17 @@ def map_with_helper(function: Callable[[T], R], items: Sequence[T], preload: Seq
             raise value
         results.append(value)
     return results
+
+
+def helper_mapper(preload: Sequence[str] = ()) -> Callable[[Callable[[T], R], Sequence[T]], list[R]] | None:
+    """:func:`map_with_helper` (importing ``preload``) when a second core is free now -- two or more cores,
+    and fewer other tasks running than the cores beside this one (a busy core would only split this
+    command's share between the two processes) -- with the fork server started at once, so that its imports
+    overlap the caller's own work; else None (the caller maps one item after the other).  The caller
+    decides first whether the jobs are work enough to pay for the helper's start, and whether both
+    processes compute alike (the helper has one BLAS thread)."""
+    cores = available_cores()
+    if cores < 2 or (other_running_tasks() or 0) >= cores - 1:
+        return None
+    start_workers(preload)
+    return functools.partial(map_with_helper, preload=tuple(preload))

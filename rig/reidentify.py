@@ -375,13 +375,14 @@ def _checked_run(path: Path, data: Recording, grid: Grid, rows: np.ndarray, o: I
     return run
 
 
-def fit_job(job: IdentifyJob, progress: Callable[[str], None] | None = None) -> FitReport:
+def fit_job(job: IdentifyJob, progress: Callable[[str], None] | None = None, mapper=None) -> FitReport:
     """Fit one planned job (runs in a worker process in batches); the model carries the run's units.
-    ``progress``: see :func:`identify.fit.fit_sequence` (the fit of a model without effects reports stages)."""
+    ``progress``: see :func:`identify.fit.fit_sequence` (the fit of a model without effects reports stages);
+    ``mapper``: how the effects' grid search runs its jobs (:func:`identify.fit.fit_run`)."""
     settings = None if job.solver is None else {"solver": job.solver}
     try:
         report = fit_run(job.grid, job.run, job.method, job.effects, rows=job.rows, thermal_term=job.thermal_term,
-                         settings=settings, curves=job.curves, progress=progress)
+                         settings=settings, curves=job.curves, progress=progress, mapper=mapper)
     except IdentifyError as exc:
         if job.label is None:
             raise

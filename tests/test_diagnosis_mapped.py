@@ -16,6 +16,7 @@ from identify.diagnosis import DiagnosisSettings, diagnose
 from rig.commands import diagnose as diagnose_command
 from rig.diagnosis.loading import load_runs
 from rig.diagnosis.simulate import SimulatedBench, simulate
+from rig import parallel
 from rig.parallel import map_with_helper, open_executor, other_running_tasks
 
 PRELOAD = diagnose_command.HELPER_MODULES
@@ -91,18 +92,18 @@ def test_the_diagnosis_does_not_depend_on_how_its_candidates_are_mapped(runs):
 
 def test_rig_diagnose_shares_the_candidates_only_where_it_pays(runs, monkeypatch):
     started = []
-    monkeypatch.setattr(diagnose_command, "start_workers", lambda modules: started.append(modules))
-    monkeypatch.setattr(diagnose_command, "available_cores", lambda: 2)
-    monkeypatch.setattr(diagnose_command, "other_running_tasks", lambda: 0)
+    monkeypatch.setattr(parallel, "start_workers", lambda modules: started.append(modules))
+    monkeypatch.setattr(parallel, "available_cores", lambda: 2)
+    monkeypatch.setattr(parallel, "other_running_tasks", lambda: 0)
     monkeypatch.setattr(diagnose_command, "HELPER_MIN_WORK", 100 * 83)  # 100 check points, the whole library
     assert diagnose_command._candidate_mapper(runs, None) is not None and started == [PRELOAD]
     assert diagnose_command._candidate_mapper(runs, ("thermal_lag", "joule_power")) is None  # 4 settings
-    monkeypatch.setattr(diagnose_command, "available_cores", lambda: 1)  # no second core
+    monkeypatch.setattr(parallel, "available_cores", lambda: 1)  # no second core
     assert diagnose_command._candidate_mapper(runs, None) is None
-    monkeypatch.setattr(diagnose_command, "available_cores", lambda: 2)
-    monkeypatch.setattr(diagnose_command, "other_running_tasks", lambda: 1)  # the other core is busy
+    monkeypatch.setattr(parallel, "available_cores", lambda: 2)
+    monkeypatch.setattr(parallel, "other_running_tasks", lambda: 1)  # the other core is busy
     assert diagnose_command._candidate_mapper(runs, None) is None
-    monkeypatch.setattr(diagnose_command, "available_cores", lambda: 4)  # but two more are free
+    monkeypatch.setattr(parallel, "available_cores", lambda: 4)  # but two more are free
     assert diagnose_command._candidate_mapper(runs, None) is not None
     assert len(started) == 2
 

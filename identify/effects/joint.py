@@ -21,7 +21,8 @@ Steps repeat until the residual stops falling (at most
 :data:`MAX_ITERATIONS`); with output effects only, one solve is exact.  An
 effect's nonlinear *settings* (a time constant, a sign) are chosen by the
 residual over its grid (:meth:`~identify.effects.base.Effect.fit_settings_grid`),
-then continuous ones (:attr:`~identify.effects.base.Effect.continuous`) are
+a few Gauss--Newton steps each (of several starting points of one setting,
+only the one that starts lowest: :data:`START_KEY`), then continuous ones (:attr:`~identify.effects.base.Effect.continuous`) are
 refined by Brent's method on a log scale between the grid neighbours of
 the best.  On noise-free data of the model's own form the
 parameters are recovered to the solver's precision.
@@ -33,21 +34,25 @@ saturates the memory (per-run effects get one set of terms per run).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
 from ..regressor_design import Design
 from ..errors import IdentifyError, MethodNotApplicable
+from ..everett import everett_changes, prefix_sums, total_index
 from ..grid import Grid
 from ..methods import Problem, make_method
 from ..metrics import max_abs, normalised, rmse
 from ..model import PreisachModel
 from ..operators import RegressorOperator
+from ..regressor import check_inputs, initial_curve
 from ..runs import Run
 from . import pipeline_order
 from .base import INPUT, SENSOR, Columns, Context, Effect, EffectNotIdentifiable, feedback_of, start_of
@@ -63,12 +68,28 @@ MAX_ITERATIONS = 40
 TOLERANCE = 1e-12
 #: Step halvings tried when a step makes the residual worse.
 HALVINGS = 6
+#: Lengthenings of a Gauss--Newton step tried while each lowers the residual further: STRETCH, STRETCH^2,
+#: ... up to STRETCH^STRETCHES times the step.
+STRETCH = 2.0
+STRETCHES = 5
 #: Linear solves per setting while the grid of settings is searched.
 GRID_ITERATIONS = 4
+#: The key of a setting that says only where an input effect's parameter starts (``interaction``'s
+#: ``start``): of the settings that differ in it alone, only the one whose start leaves the smallest
+#: residual (the linear terms solved there) takes the Gauss--Newton steps of the grid search.
+START_KEY = "start"
 #: Most evaluations of Brent's method refining a continuous setting.
 REFINE_STEPS = 60
 #: Relative width (log scale) at which the refinement stops.
 REFINE_TOL = 1e-9
+
+
+#: How the grid search's independent jobs are run: ``mapper(function, items) -> [function(item), ...]``.
+Mapper = Callable[[Callable[[Any], Any], Sequence[Any]], list[Any]]
+
+
+def _serial(function: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
+    return [function(item) for item in items]
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,8 +186,26 @@ class _Hysteresis:
         return op
 
     def of(self, model: PreisachModel):
+        """``x -> S(x) (mu, mu0)`` (um): by the cached operator of ``x`` when there is one, else by
+        summing the replay's Everett terms (:func:`~identify.everett.everett_changes`) without building
+        one -- most inputs a fit evaluates (a context's first guess, an effect's secant) are never solved
+        at, and the operator of those that are is built when the solve asks for it."""
         w = np.concatenate([model.density, [model.mu0]])
-        return lambda x: self.operator(np.asarray(x, dtype=float)).matvec(w)
+        p = prefix_sums(self.grid, model.density)
+        total = p[total_index(self.grid)]
+
+        def output(x: np.ndarray) -> np.ndarray:
+            x = np.asarray(x, dtype=float)
+            op = self.ops.get(np.ascontiguousarray(x).tobytes())
+            if op is not None:
+                return op.matvec(w)
+            grid = self.grid
+            phi = np.cumsum(everett_changes(grid, grid.coordinates(check_inputs(x)), initial_curve(grid), p))
+            phi *= 2.0
+            phi += model.mu0 - total
+            return phi
+
+        return output
 
 
 def _deflection(hyst, model: PreisachModel, effects: tuple[Effect, ...], run: Run, fb: np.ndarray
@@ -233,6 +272,21 @@ class _Fitter:
         #: The design of the last solve: the next reuses its operator while the hysterons' inputs stay put.
         self.design: Design | None = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        """For a helper process: without the cached operators (rebuilt there as needed)."""
+        state = dict(self.__dict__)
+        state.update(hysteresis=_Hysteresis(self.grid), design=None, _origin=None)
+        return state
+
+    def origin(self, model: PreisachModel, effects: tuple[Effect, ...]) -> _State:
+        """The state of ``model`` with ``effects``, kept for the next call with the very same objects (the
+        jobs of one grid search share their origin)."""
+        kept = getattr(self, "_origin", None)
+        if kept is None or kept[0] is not model or kept[1] is not effects:
+            kept = (model, effects, self.state(model, effects))
+            self._origin = kept
+        return kept[2]
+
     # ------------------------------------------------------------ one linear solve
     def solve(self, ctx: Context, effects: tuple[Effect, ...], settings: tuple[dict, ...], frozen: bool = False
               ) -> tuple[PreisachModel, tuple[Effect, ...]]:
@@ -296,7 +350,7 @@ class _Fitter:
             extra, order, scale, k_nonneg, penalty, target = None, np.zeros(0, int), np.zeros(0), 0, None, None
         design = Design(self.grid, x, thermal_term=False)
         if design != self.design:
-            # the hysterons' inputs of a context just evaluated: their operator is in the cache
+            # the operator of these inputs, built once (and kept for the secants and products at them)
             self.design = design.adopt(self.hysteresis.operator(x))
         problem = Problem.on(self.design, outputs, st.rows, extra=extra, extra_nonneg=k_nonneg,
                              row_scale=row_scale, penalty=penalty, penalty_target=target)
@@ -350,13 +404,21 @@ class _Fitter:
     def converge(self, start: _State, settings: tuple[dict, ...], max_iter: int = MAX_ITERATIONS) -> _State:
         """Iterate at ``settings`` from ``start``: first the linear terms at the input effects' starting
         point, then Gauss--Newton steps (halved while they do not help) until the residual stops falling."""
+        return self.iterate(self.begin(start, settings), settings, max_iter)
+
+    def begin(self, start: _State, settings: tuple[dict, ...]) -> _State:
+        """The linear terms solved with the input and sensor effects held at ``settings``' starting point."""
         effects = tuple(e.with_setting(s, start.ctx) for e, s in zip(start.effects, settings))
         cur = self.state(start.model, effects)
         model, fitted = self.solve(cur.ctx, cur.effects, settings, frozen=True)
-        cur = self.state(model, fitted)
+        return self.state(model, fitted)
+
+    def iterate(self, cur: _State, settings: tuple[dict, ...], max_iter: int = MAX_ITERATIONS) -> _State:
+        """Gauss--Newton steps at ``settings`` from ``cur`` (a :meth:`begin`), halved while they do not help,
+        until the residual stops falling."""
         # input and sensor effects, and terms driven by (or scaling) the model's own output, need iterating
         if not any(e.stage in (INPUT, SENSOR) or e.from_base or s.get("drive") == "output"
-                   for e, s in zip(effects, settings)):
+                   for e, s in zip(cur.effects, settings)):
             return cur
         for _ in range(max_iter):
             if cur.rss <= self.exact:
@@ -365,6 +427,8 @@ class _Fitter:
             new = self.state(model, fitted)
             if new.rss > cur.rss:
                 new = self._halve(cur, new, settings)
+            elif new.rss < cur.rss:
+                new = self._stretch(cur, new, settings)
             if new.rss >= cur.rss:
                 break
             improved = cur.rss - new.rss
@@ -372,6 +436,24 @@ class _Fitter:
             if improved <= TOLERANCE * cur.rss or cur.rss == 0.0:
                 break
         return cur
+
+    def _stretch(self, cur: _State, new: _State, settings) -> _State:
+        """Longer steps of the input effects from ``cur`` through ``new`` (2, 4, ... times it, the linear
+        terms re-solved at each) while they keep lowering the residual: where the linearisation
+        underestimates the step -- the output the hysterons feel held fixed in the secant while it moves
+        with them -- plain steps creep towards the minimum, a fiftieth of the way a step."""
+        best = new
+        for h in range(1, STRETCHES + 1):
+            effects = tuple(_between(a, b, STRETCH ** h) for a, b in zip(cur.effects, new.effects))
+            if all(e is b for e, b in zip(effects, new.effects)):
+                return best  # no input or sensor effect to move
+            trial = self.state(cur.model, effects)
+            model, fitted = self.solve(trial.ctx, trial.effects, settings, frozen=True)
+            trial = self.state(model, fitted)
+            if not trial.rss < best.rss:
+                break
+            best = trial
+        return best
 
     def _halve(self, cur: _State, new: _State, settings) -> _State:
         """Shorter steps of the input effects from ``cur`` towards ``new``, the linear terms re-solved at each."""
@@ -431,8 +513,12 @@ def fit_with_effects(
     *,
     thermal_term: bool = True,
     settings: dict[str, Any] | None = None,
+    mapper: Mapper | None = None,
 ) -> JointFit:
     """Identify equation (22) and ``effects`` (unfitted instances) jointly on ``runs`` by ``method``.
+
+    ``mapper(function, items)`` (default: one after the other) runs the grid search's independent jobs --
+    e.g. shared with a helper process; the result does not depend on it where the processes compute alike.
 
     ``thermal_term`` is dropped when an effect replaces it (``reversible``).
     Raises :class:`~identify.effects.EffectNotIdentifiable` (with the reason)
@@ -456,12 +542,15 @@ def fit_with_effects(
     _scan_starts(fitter, start)
     chosen = [e.fit_settings_grid()[0] for e in fitter.effects]
     cur = _State(start.model, tuple(fitter.effects), start.rss, start.ctx, {})
-    cur = fitter.converge(cur, tuple(chosen))
+    searched = [len(e.fit_settings_grid()) > 1 for e in fitter.effects]
+    if not (len(searched) == 1 and searched[0]):
+        # the other effects fitted before one's grid is searched (a lone effect's search starts from scratch)
+        cur = fitter.converge(cur, tuple(chosen))
     if fitter.effects:
         for k, e in enumerate(fitter.effects):
             grid_k = e.fit_settings_grid()
             if len(grid_k) > 1:
-                cur, chosen[k] = _search(fitter, cur, chosen, k, grid_k)
+                cur, chosen[k] = _search(fitter, cur, chosen, k, grid_k, mapper or _serial)
     seconds = time.perf_counter() - start_time
     # an effect no step could improve on stays at zero: fitted, with zero coefficients
     final = []
@@ -503,21 +592,41 @@ def _scan_starts(fitter: _Fitter, start: _State) -> None:
             fitter.effects[k] = found
 
 
-def _search(fitter: _Fitter, cur: _State, chosen: list[dict], k: int, grid_k: list[dict]) -> tuple[_State, dict]:
-    """Effect ``k``'s setting: the best of its grid (a few steps each), then its continuous settings refined
-    by Brent's method on a log scale between the best's grid neighbours, then iterated to convergence."""
+def _grid_step(fitter: _Fitter, model: PreisachModel, effects: tuple[Effect, ...],
+               job: tuple[tuple[dict, ...], int, tuple | None]) -> tuple[PreisachModel, tuple[Effect, ...], float]:
+    """One job of the grid search (module level, so a helper process can run it): ``(settings, steps,
+    begun)`` -- from ``begun`` (a model and effects :meth:`_Fitter.begin` reached), or else begun at the
+    settings from ``model`` with ``effects`` (the search's origin), at most ``steps`` Gauss--Newton steps;
+    the model, effects and residual sum of squares reached (the context stays behind: :meth:`_Fitter.state`
+    rebuilds it alike)."""
+    trial, steps, begun = job
+    st = fitter.begin(fitter.origin(model, effects), trial) if begun is None else fitter.state(*begun)
+    if steps:
+        st = fitter.iterate(st, trial, steps)
+    return st.model, st.effects, st.rss
+
+
+def _search(fitter: _Fitter, cur: _State, chosen: list[dict], k: int, grid_k: list[dict],
+            mapper: Mapper = _serial) -> tuple[_State, dict]:
+    """Effect ``k``'s setting: the best of its grid (a few steps each, by ``mapper``), then its continuous
+    settings refined by Brent's method on a log scale between the best's grid neighbours, then iterated to
+    convergence."""
     from scipy.optimize import minimize_scalar
 
-    results = []
     fresh = list(cur.effects)
     fresh[k] = fitter.effects[k]  # each setting of the grid starts the effect afresh
     origin = replace(cur, effects=tuple(fresh))
-    for s in grid_k:
-        trial = list(chosen)
-        trial[k] = s
-        results.append((fitter.converge(origin, tuple(trial), GRID_ITERATIONS), s))
-    best_i = int(np.argmin([r.rss for r, _ in results]))
-    best, setting = results[best_i]
+    trials = [tuple(chosen[:k]) + (s,) + tuple(chosen[k + 1:]) for s in grid_k]
+    step = functools.partial(_grid_step, fitter, origin.model, origin.effects)
+    begun = mapper(step, [(trial, 0, None) for trial in trials])
+    # settings that differ only in where the effect starts: the best start alone is iterated
+    groups: dict[tuple, list[int]] = {}
+    for i, s in enumerate(grid_k):
+        groups.setdefault(tuple(sorted((key, v) for key, v in s.items() if key != START_KEY)), []).append(i)
+    leaders = [min(members, key=lambda m: begun[m][2]) for members in groups.values()]
+    iterated = mapper(step, [(trials[i], GRID_ITERATIONS, begun[i][:2]) for i in leaders])
+    best_i, (model, effects, _) = min(zip(leaders, iterated), key=lambda r: r[1][2])
+    best, setting = fitter.state(model, effects), grid_k[best_i]
     e = fitter.effects[k]
     for name in e.continuous:
         values = [float(s[name]) for s in grid_k]

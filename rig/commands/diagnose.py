@@ -3,7 +3,6 @@ and how far the gap shrinks once that effect is added."""
 
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 
 import click
@@ -22,7 +21,7 @@ from ..diagnosis.report import to_json, to_text, write_figures
 from ..errors import UserError
 from ..options import AliasedOption
 from ..output import print_json
-from ..parallel import available_cores, map_with_helper, other_running_tasks, start_workers
+from ..parallel import helper_mapper
 
 _PATH = click.Path(dir_okay=False, path_type=Path)
 #: What the helper process that scores half the candidates imports once (its fork server, started early).
@@ -44,17 +43,13 @@ def _candidate_mapper(loaded, effects: tuple[str, ...] | None):
     Only where both processes compute alike: the helper has one BLAS thread, as the diagnosis of a small
     grid has (:mod:`identify.threads`), or the threads the user set for both."""
     grid = loaded.grid
-    cores = available_cores()
-    if cores < 2 or not (single_threaded(grid.n_cells + 2) or user_chose_threads()):
+    if not (single_threaded(grid.n_cells + 2) or user_chose_threads()):
         return None
     settings = sum(len(c.settings_grid()) for c in library(None if effects is None else
                                                            tuple(n for n in effects if n != "resolution")))
     if sum(len(run.rows) for run in loaded.check) * settings < HELPER_MIN_WORK:
         return None
-    if (other_running_tasks() or 0) >= cores - 1:
-        return None
-    start_workers(HELPER_MODULES)  # the helper's imports overlap the base fit's
-    return functools.partial(map_with_helper, preload=HELPER_MODULES)  # (--partial shadows partial below)
+    return helper_mapper(HELPER_MODULES)  # its imports overlap the base fit's
 
 
 def _effects(text: str | None) -> tuple[str, ...] | None:

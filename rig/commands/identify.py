@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import time
 from pathlib import Path
@@ -13,6 +14,7 @@ from identify import METHODS
 from identify.methods.base import SOLVERS
 from identify.effects import parse_effects
 from identify.effects import spellings as effect_spellings
+from identify.threads import single_threaded, user_chose_threads
 
 from ..budget.identification import PROGRESS_AFTER_S, job_cost
 from ..budget.limits import refuse_unless_confirmed
@@ -21,7 +23,7 @@ from ..errors import UserError
 from ..fit_progress import fit_in_process
 from ..options import AliasedOption, scheduler_option
 from ..output import format_table, print_json, unit_token
-from ..parallel import cluster_workers, default_workers, run_parallel, start_workers
+from ..parallel import cluster_workers, default_workers, helper_mapper, run_parallel, start_workers
 from ..reidentify import (RECIPE_SETTINGS, IdentifyOptions, check_grid, fit_job, plan_jobs, result_dict,
                           store_model)
 
@@ -35,6 +37,29 @@ WORKER_MODULES = ["rig.reidentify"]
 #: workers (a fork server importing numpy, scipy and cvxpy) costs; at L = 30, M = 300 a fit is
 #: 140k and 10-50 ms, at L = 100, M = 3,284 it is 17M and 0.6-2.4 s (docs/results, speed and scale).
 PARALLEL_WORK = 20_000_000
+
+
+#: Work -- measured rows times the settings of the effects' grid searches -- from which a fit in this
+#: process shares its grid search with a helper process when a second core is free (the helper's start
+#: costs the other core about a second of imports; this process does not wait for it).  The simulated
+#: bench's L = 30 run with ``--with interaction``, 467 x 20, fits in about 3 s alone; the shared FORC
+#: file's even curves with it, 41,907 x 20, in about 45 s alone.
+SEARCH_HELPER_WORK = 20_000
+
+
+def search_mapper(planned):
+    """How the fits of a batch in this process run their effects' grid searches: shared with a helper
+    process (:func:`rig.parallel.helper_mapper`) when one of them is work enough
+    (:data:`SEARCH_HELPER_WORK`), both processes compute alike (one BLAS thread, as the joint fit of a
+    small grid has: :mod:`identify.threads`, or the threads the user set for both) and a core is free;
+    else None."""
+    def work(job) -> int:
+        return int(job.rows.size) * sum(len(g) for g in (e.fit_settings_grid() for e in job.effects) if len(g) > 1)
+
+    if not any(work(job) >= SEARCH_HELPER_WORK and (single_threaded(job.grid.n_cells + 2) or user_chose_threads())
+               for job in planned):
+        return None
+    return helper_mapper(WORKER_MODULES)
 
 
 def batch_work(planned) -> int:
@@ -164,7 +189,9 @@ def identify(ctx, files, levels, v_min, v_max, method, solver, measurements, see
         if cost.seconds > PROGRESS_AFTER_S:
             click.echo(f"{job.path}: {cost.describe()}", err=True)
     if workers == 1 and scheduler is None:
-        reports = fit_in_process(fit_job, planned, costs, [f"rig identify: {job.path}" for job in planned])
+        mapper = search_mapper(planned)
+        fit = fit_job if mapper is None else functools.partial(fit_job, mapper=mapper)
+        reports = fit_in_process(fit, planned, costs, [f"rig identify: {job.path}" for job in planned])
     else:
         reports = run_parallel(fit_job, planned, workers, desc="identify", unit="file", preload=WORKER_MODULES,
                                scheduler=scheduler)
