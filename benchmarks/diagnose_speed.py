@@ -15,10 +15,12 @@ Cases (the figures the evidence-bound diagnosis and the discriminating run are h
   curves fitted and odd held out at L = 30 (about 30,000 points); target 30 s;
 * ``identify FORC --with interaction``: ``rig identify --levels 30 --curves
   even --with interaction`` on it (41,907 measured of 84,179 points: the even
-  curves hold half the file); target 20 s.
+  curves hold half the file); target 20 s;
+* ``identify FORC 15,000 --with interaction``: the same fitted on 15,000 of
+  those points (``-M 15000``), the size the issue's target names; target 20 s.
 
 ``--cases`` times only the cases whose names contain one of the given
-strings (``--cases interaction``: the last case alone); the discriminating
+strings (``--cases interaction``: the last two cases); the discriminating
 run's design is reported only when its case is timed.
 
 Each cold case runs ``--repeats`` times in a fresh process (median wall and
@@ -94,6 +96,9 @@ def main(argv: list[str] | None = None) -> int:
                                         "--check-curves", "odd", "--levels", "30", "--json"], 30.0)
         cases["identify FORC --with interaction"] = (["identify", str(md), "--levels", "30", "--curves", "even",
                                                       "--with", "interaction", "--no-store", "--json"], 20.0)
+        cases["identify FORC 15,000 --with interaction"] = (["identify", str(md), "--levels", "30", "--curves",
+                                                             "even", "-M", "15000", "--with", "interaction",
+                                                             "--no-store", "--json"], 20.0)
     if args.cases:
         wanted = [w.strip() for w in args.cases.split(",") if w.strip()]
         cases = {name: case for name, case in cases.items() if any(w in name for w in wanted)}

@@ -92,10 +92,10 @@ def test_of_the_starts_of_one_setting_only_the_lowest_takes_the_search_steps(mon
     searched = []
     iterate = joint._Fitter.iterate
 
-    def counted(self, cur, settings, max_iter=joint.MAX_ITERATIONS):
+    def counted(self, cur, settings, max_iter=joint.MAX_ITERATIONS, halvings=joint.HALVINGS):
         if max_iter == joint.GRID_ITERATIONS:
             searched.append(dict(settings[0]))
-        return iterate(self, cur, settings, max_iter)
+        return iterate(self, cur, settings, max_iter, halvings)
 
     monkeypatch.setattr(joint._Fitter, "iterate", counted)
     fit = joint.fit_with_effects(GRID, [run], "ls", [make_effect("interaction")])

@@ -72,6 +72,9 @@ HALVINGS = 6
 #: ... up to STRETCH^STRETCHES times the step.
 STRETCH = 2.0
 STRETCHES = 5
+#: Step halvings tried in the grid search (whose steps only rank the settings: a step that does not help
+#: after one halving ends the setting's search there; the chosen setting is then iterated with HALVINGS).
+SEARCH_HALVINGS = 1
 #: Linear solves per setting while the grid of settings is searched.
 GRID_ITERATIONS = 4
 #: The key of a setting that says only where an input effect's parameter starts (``interaction``'s
@@ -413,9 +416,10 @@ class _Fitter:
         model, fitted = self.solve(cur.ctx, cur.effects, settings, frozen=True)
         return self.state(model, fitted)
 
-    def iterate(self, cur: _State, settings: tuple[dict, ...], max_iter: int = MAX_ITERATIONS) -> _State:
-        """Gauss--Newton steps at ``settings`` from ``cur`` (a :meth:`begin`), halved while they do not help,
-        until the residual stops falling."""
+    def iterate(self, cur: _State, settings: tuple[dict, ...], max_iter: int = MAX_ITERATIONS,
+                halvings: int = HALVINGS) -> _State:
+        """Gauss--Newton steps at ``settings`` from ``cur`` (a :meth:`begin`), halved (at most ``halvings``
+        times a step) while they do not help, until the residual stops falling."""
         # input and sensor effects, and terms driven by (or scaling) the model's own output, need iterating
         if not any(e.stage in (INPUT, SENSOR) or e.from_base or s.get("drive") == "output"
                    for e, s in zip(cur.effects, settings)):
@@ -426,7 +430,7 @@ class _Fitter:
             model, fitted = self.solve(cur.ctx, cur.effects, settings)
             new = self.state(model, fitted)
             if new.rss > cur.rss:
-                new = self._halve(cur, new, settings)
+                new = self._halve(cur, new, settings, halvings)
             elif new.rss < cur.rss:
                 new = self._stretch(cur, new, settings)
             if new.rss >= cur.rss:
@@ -455,10 +459,10 @@ class _Fitter:
             best = trial
         return best
 
-    def _halve(self, cur: _State, new: _State, settings) -> _State:
+    def _halve(self, cur: _State, new: _State, settings, halvings: int = HALVINGS) -> _State:
         """Shorter steps of the input effects from ``cur`` towards ``new``, the linear terms re-solved at each."""
         best = new
-        for h in range(1, HALVINGS + 1):
+        for h in range(1, halvings + 1):
             t = 0.5 ** h
             effects = tuple(_between(a, b, t) for a, b in zip(cur.effects, new.effects))
             trial = self.state(cur.model, effects)
@@ -602,7 +606,7 @@ def _grid_step(fitter: _Fitter, model: PreisachModel, effects: tuple[Effect, ...
     trial, steps, begun = job
     st = fitter.begin(fitter.origin(model, effects), trial) if begun is None else fitter.state(*begun)
     if steps:
-        st = fitter.iterate(st, trial, steps)
+        st = fitter.iterate(st, trial, steps, SEARCH_HALVINGS)
     return st.model, st.effects, st.rss
 
 
