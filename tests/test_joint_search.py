@@ -19,7 +19,7 @@ from identify.regressor import initial_curve
 from identify.runs import Run
 from rig import parallel
 from rig.commands import identify as identify_command
-from rig.parallel import map_with_helper
+from rig.parallel import map_with_helper, open_executor
 
 GRID = Grid(6, 0.0, 4.0)
 
@@ -71,17 +71,26 @@ def _reversed(function, items):
     return [function(item) for item in reversed(items)][::-1]
 
 
+def _in_another_process(function, items):
+    """Every job in a process of the local pool (the fitter pickled there, as the helper gets it)."""
+    with open_executor(1, preload=("identify.effects.joint",)) as pool:
+        return list(pool.map(function, items))
+
+
 def _same_fit(a, b) -> None:
     assert a.settings == b.settings
     assert [e.params for e in a.model.effects] == [e.params for e in b.model.effects]
     np.testing.assert_array_equal(a.model.density, b.model.density)
     assert (a.model.mu0, a.model.c_d, a.rmse) == (b.model.mu0, b.model.c_d, b.rmse)
+    assert a.info["solves"] == b.info["solves"]  # counted wherever they ran
 
 
 def test_the_grid_search_gives_the_same_fit_however_its_jobs_are_mapped():
     run = _interaction_run(noise=0.002)
     serial = joint.fit_with_effects(GRID, [run], "ls", [make_effect("interaction")])
     _same_fit(serial, joint.fit_with_effects(GRID, [run], "ls", [make_effect("interaction")], mapper=_reversed))
+    _same_fit(serial, joint.fit_with_effects(GRID, [run], "ls", [make_effect("interaction")],
+                                             mapper=_in_another_process))
     helped = joint.fit_with_effects(GRID, [run], "ls", [make_effect("interaction")],
                                     mapper=functools.partial(map_with_helper, preload=("identify.effects.joint",)))
     _same_fit(serial, helped)

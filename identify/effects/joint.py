@@ -597,17 +597,18 @@ def _scan_starts(fitter: _Fitter, start: _State) -> None:
 
 
 def _grid_step(fitter: _Fitter, model: PreisachModel, effects: tuple[Effect, ...],
-               job: tuple[tuple[dict, ...], int, tuple | None]) -> tuple[PreisachModel, tuple[Effect, ...], float]:
+               job: tuple[tuple[dict, ...], int, tuple | None]) -> tuple[PreisachModel, tuple[Effect, ...], float, int]:
     """One job of the grid search (module level, so a helper process can run it): ``(settings, steps,
     begun)`` -- from ``begun`` (a model and effects :meth:`_Fitter.begin` reached), or else begun at the
     settings from ``model`` with ``effects`` (the search's origin), at most ``steps`` Gauss--Newton steps;
     the model, effects and residual sum of squares reached (the context stays behind: :meth:`_Fitter.state`
-    rebuilds it alike)."""
+    rebuilds it alike), and the linear solves it took."""
     trial, steps, begun = job
+    solves = fitter.solves
     st = fitter.begin(fitter.origin(model, effects), trial) if begun is None else fitter.state(*begun)
     if steps:
         st = fitter.iterate(st, trial, steps, SEARCH_HALVINGS)
-    return st.model, st.effects, st.rss
+    return st.model, st.effects, st.rss, fitter.solves - solves
 
 
 def _search(fitter: _Fitter, cur: _State, chosen: list[dict], k: int, grid_k: list[dict],
@@ -622,6 +623,7 @@ def _search(fitter: _Fitter, cur: _State, chosen: list[dict], k: int, grid_k: li
     origin = replace(cur, effects=tuple(fresh))
     trials = [tuple(chosen[:k]) + (s,) + tuple(chosen[k + 1:]) for s in grid_k]
     step = functools.partial(_grid_step, fitter, origin.model, origin.effects)
+    solves = fitter.solves  # the jobs' solves are counted where they ran: summed here, wherever that was
     begun = mapper(step, [(trial, 0, None) for trial in trials])
     # settings that differ only in where the effect starts: the best start alone is iterated
     groups: dict[tuple, list[int]] = {}
@@ -629,7 +631,8 @@ def _search(fitter: _Fitter, cur: _State, chosen: list[dict], k: int, grid_k: li
         groups.setdefault(tuple(sorted((key, v) for key, v in s.items() if key != START_KEY)), []).append(i)
     leaders = [min(members, key=lambda m: begun[m][2]) for members in groups.values()]
     iterated = mapper(step, [(trials[i], GRID_ITERATIONS, begun[i][:2]) for i in leaders])
-    best_i, (model, effects, _) = min(zip(leaders, iterated), key=lambda r: r[1][2])
+    fitter.solves = solves + sum(r[3] for r in begun) + sum(r[3] for r in iterated)
+    best_i, (model, effects, _, _) = min(zip(leaders, iterated), key=lambda r: r[1][2])
     best, setting = fitter.state(model, effects), grid_k[best_i]
     e = fitter.effects[k]
     for name in e.continuous:
