@@ -46,13 +46,12 @@ import numpy as np
 
 from ..regressor_design import Design
 from ..errors import IdentifyError, MethodNotApplicable
-from ..everett import everett_changes, prefix_sums, total_index
+from ..forward import predict
 from ..grid import Grid
 from ..methods import Problem, make_method
 from ..metrics import max_abs, normalised, rmse
 from ..model import PreisachModel
 from ..operators import RegressorOperator
-from ..regressor import check_inputs, initial_curve
 from ..runs import Run
 from . import pipeline_order
 from .base import INPUT, SENSOR, Columns, Context, Effect, EffectNotIdentifiable, feedback_of, start_of
@@ -189,24 +188,17 @@ class _Hysteresis:
         return op
 
     def of(self, model: PreisachModel):
-        """``x -> S(x) (mu, mu0)`` (um): by the cached operator of ``x`` when there is one, else by
-        summing the replay's Everett terms (:func:`~identify.everett.everett_changes`) without building
-        one -- most inputs a fit evaluates (a context's first guess, an effect's secant) are never solved
-        at, and the operator of those that are is built when the solve asks for it."""
+        """``x -> S(x) (mu, mu0)`` (um): by the cached operator of ``x`` when there is one, else as
+        :func:`~identify.forward.predict` of the model without its thermal term (the replay's Everett terms
+        summed, no operator built) -- most inputs a fit evaluates (a context's first guess, an effect's
+        secant) are never solved at, and the operator of those that are is built when the solve asks."""
         w = np.concatenate([model.density, [model.mu0]])
-        p = prefix_sums(self.grid, model.density)
-        total = p[total_index(self.grid)]
+        bare = replace(model, c_d=0.0, effects=())
 
         def output(x: np.ndarray) -> np.ndarray:
             x = np.asarray(x, dtype=float)
             op = self.ops.get(np.ascontiguousarray(x).tobytes())
-            if op is not None:
-                return op.matvec(w)
-            grid = self.grid
-            phi = np.cumsum(everett_changes(grid, grid.coordinates(check_inputs(x)), initial_curve(grid), p))
-            phi *= 2.0
-            phi += model.mu0 - total
-            return phi
+            return op.matvec(w) if op is not None else predict(bare, x)
 
         return output
 
@@ -274,6 +266,8 @@ class _Fitter:
         self.hysteresis = _Hysteresis(grid)
         #: The design of the last solve: the next reuses its operator while the hysterons' inputs stay put.
         self.design: Design | None = None
+        #: The grid search's origin, its model and effects and their state (:meth:`origin`).
+        self._origin: tuple[PreisachModel, tuple[Effect, ...], _State] | None = None
 
     def __getstate__(self) -> dict[str, Any]:
         """For a helper process: without the cached operators (rebuilt there as needed)."""
@@ -284,7 +278,7 @@ class _Fitter:
     def origin(self, model: PreisachModel, effects: tuple[Effect, ...]) -> _State:
         """The state of ``model`` with ``effects``, kept for the next call with the very same objects (the
         jobs of one grid search share their origin)."""
-        kept = getattr(self, "_origin", None)
+        kept = self._origin
         if kept is None or kept[0] is not model or kept[1] is not effects:
             kept = (model, effects, self.state(model, effects))
             self._origin = kept
