@@ -43,7 +43,7 @@ PARALLEL_WORK = 20_000_000
 #: process shares its grid search with a helper process when a second core is free (the helper's start
 #: costs the other core about a second of imports; this process does not wait for it).  The simulated
 #: bench's L = 30 run with ``--with interaction``, 467 x 20, fits in about 3 s alone; the shared FORC
-#: file's even curves with it, 41,907 x 20, in about 45 s alone.
+#: file's even curves with it, 41,907 x 20, in about 36 s alone.
 SEARCH_HELPER_WORK = 20_000
 
 
