@@ -538,17 +538,15 @@ def fit_with_effects(
         base = fitter.state(base_model, ())
     start = base or zero
     _scan_starts(fitter, start)
-    chosen = [e.fit_settings_grid()[0] for e in fitter.effects]
+    grids = [e.fit_settings_grid() for e in fitter.effects]
+    chosen = [g[0] for g in grids]
     cur = _State(start.model, tuple(fitter.effects), start.rss, start.ctx, {})
-    searched = [len(e.fit_settings_grid()) > 1 for e in fitter.effects]
-    if not (len(searched) == 1 and searched[0]):
+    if not (len(grids) == 1 and len(grids[0]) > 1):
         # the other effects fitted before one's grid is searched (a lone effect's search starts from scratch)
         cur = fitter.converge(cur, tuple(chosen))
-    if fitter.effects:
-        for k, e in enumerate(fitter.effects):
-            grid_k = e.fit_settings_grid()
-            if len(grid_k) > 1:
-                cur, chosen[k] = _search(fitter, cur, chosen, k, grid_k, mapper or _serial)
+    for k, grid_k in enumerate(grids):
+        if len(grid_k) > 1:
+            cur, chosen[k] = _search(fitter, cur, chosen, k, grid_k, mapper or _serial)
     seconds = time.perf_counter() - start_time
     # an effect no step could improve on stays at zero: fitted, with zero coefficients
     final = []
