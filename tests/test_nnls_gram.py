@@ -144,3 +144,26 @@ def test_the_vectorised_replay_emits_the_loops_terms_in_its_order(levels):
         for e, g in zip(expected, got):
             np.testing.assert_array_equal(g, e)
         assert vectorised == loop and vectorised.position == loop.position
+
+
+def test_a_rank_deficient_gram_matrix_is_factored_exactly():
+    """Inputs that never reach the upper cells (a Gram matrix of rank below P, where Cholesky fails):
+    the pivoted factor reproduces the Gram matrix and the right-hand side, and the factor's least-squares
+    residual is the dense problem's."""
+    grid = Grid(8, 0.0, 1.0)
+    v = 0.45 * noisy_reversals(grid, 400, 11)  # the upper half of the Preisach plane is never switched
+    op = RegressorOperator(grid, v, True)
+    rows = np.arange(0, 400, 2)
+    a = op.dense_rows(rows)
+    rank = np.linalg.matrix_rank(a)
+    assert rank < a.shape[1]
+    with pytest.raises(np.linalg.LinAlgError):
+        np.linalg.cholesky(a.T @ a)
+    y = np.random.default_rng(11).normal(size=rows.size)
+    r, z = nnls._gram_factor(op, rows, y)
+    assert r.shape == (rank, a.shape[1])
+    np.testing.assert_allclose(r.T @ r, a.T @ a, rtol=0, atol=1e-11 * np.abs(a.T @ a).max())
+    np.testing.assert_allclose(r.T @ z, a.T @ y, rtol=0, atol=1e-10 * np.abs(a.T @ y).max())
+    w = np.linalg.lstsq(r, z, rcond=None)[0]
+    best = np.linalg.lstsq(a, y, rcond=None)[0]
+    assert np.linalg.norm(a @ w - y) == pytest.approx(np.linalg.norm(a @ best - y), rel=1e-9)
