@@ -454,8 +454,16 @@ class _Fitter:
         return best
 
     def _halve(self, cur: _State, new: _State, settings, halvings: int = HALVINGS) -> _State:
-        """Shorter steps of the input effects from ``cur`` towards ``new``, the linear terms re-solved at each."""
+        """Shorter steps of the input effects from ``cur`` towards ``new``, the linear terms re-solved at each.
+
+        The halving stops early when the residual rises along the step from ``cur``: with the excesses
+        ``e(t)`` and ``e(t/2)`` of two halved steps over ``cur``'s residual both positive, the parabola
+        through ``(0, 0)``, ``(t/2, e(t/2))`` and ``(t, e(t))`` has the slope ``(4 e(t/2) - e(t)) / t`` at
+        ``cur``; when that is not negative no shorter step can help (a residual at ``t = 0`` below ``cur``'s
+        only lowers the estimate, so the test errs towards halving on).  At a minimum the linearisation
+        cannot resolve, each halving otherwise costs a solve to halve an excess that never changes sign."""
         best = new
+        previous = None  # the excess of the last halved step
         for h in range(1, halvings + 1):
             t = 0.5 ** h
             effects = tuple(_between(a, b, t) for a, b in zip(cur.effects, new.effects))
@@ -466,6 +474,10 @@ class _Fitter:
                 best = trial
             if best.rss < cur.rss:
                 break
+            excess = trial.rss - cur.rss
+            if previous is not None and previous > 0 and excess > 0 and 4.0 * excess - previous >= 0:
+                break
+            previous = excess
         return best
 
 
