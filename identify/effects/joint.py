@@ -406,9 +406,14 @@ class _Fitter:
     def begin(self, start: _State, settings: tuple[dict, ...]) -> _State:
         """The linear terms solved with the input and sensor effects held at ``settings``' starting point."""
         effects = tuple(e.with_setting(s, start.ctx) for e, s in zip(start.effects, settings))
-        cur = self.state(start.model, effects)
-        model, fitted = self.solve(cur.ctx, cur.effects, settings, frozen=True)
-        return self.state(model, fitted)
+        return self.resolved(start.model, effects, settings)
+
+    def resolved(self, model: PreisachModel, effects: tuple[Effect, ...], settings: tuple[dict, ...]) -> _State:
+        """The state with the input and sensor effects held at ``effects`` and the linear terms solved there
+        (from ``model``'s context): how a setting's start, a lengthened and a halved step are scored."""
+        trial = self.state(model, effects)
+        solved, fitted = self.solve(trial.ctx, trial.effects, settings, frozen=True)
+        return self.state(solved, fitted)
 
     def iterate(self, cur: _State, settings: tuple[dict, ...], max_iter: int = MAX_ITERATIONS,
                 halvings: int = HALVINGS) -> _State:
@@ -445,9 +450,7 @@ class _Fitter:
             effects = tuple(_between(a, b, STRETCH ** h) for a, b in zip(cur.effects, new.effects))
             if all(e is b for e, b in zip(effects, new.effects)):
                 return best  # no input or sensor effect to move
-            trial = self.state(cur.model, effects)
-            model, fitted = self.solve(trial.ctx, trial.effects, settings, frozen=True)
-            trial = self.state(model, fitted)
+            trial = self.resolved(cur.model, effects, settings)
             if not trial.rss < best.rss:
                 break
             best = trial
@@ -467,9 +470,7 @@ class _Fitter:
         for h in range(1, halvings + 1):
             t = 0.5 ** h
             effects = tuple(_between(a, b, t) for a, b in zip(cur.effects, new.effects))
-            trial = self.state(cur.model, effects)
-            model, fitted = self.solve(trial.ctx, trial.effects, settings, frozen=True)
-            trial = self.state(model, fitted)
+            trial = self.resolved(cur.model, effects, settings)
             if trial.rss < best.rss:
                 best = trial
             if best.rss < cur.rss:
@@ -591,9 +592,7 @@ def _scan_starts(fitter: _Fitter, start: _State) -> None:
             continue
 
         def score(candidate: Effect) -> float:
-            st = fitter.state(start.model, (candidate,))
-            model, fitted = fitter.solve(st.ctx, (candidate,), ({},), frozen=True)
-            return fitter.state(model, fitted).rss
+            return fitter.resolved(start.model, (candidate,), ({},)).rss
 
         found = e.scan(score)
         if found is not None and score(found) < start.rss:
