@@ -56,7 +56,7 @@ from identify.model_json import model_from_dict, model_to_dict
 
 TRUTHS = {
     "thermal_lag": {"drive": "power", "time_constants_s": list(LAG_TAUS),
-                    "fractions": [0.0, 0.0, 0.0, 0.1, 0.0, 0.15, 0.0, 0.0, 0.0, 0.0]},
+                    "fractions": [0.0, 0.0, 0.0, 0.1, 0.0, 0.15] + [0.0] * (len(LAG_TAUS) - 6)},
     "baseline_drift": None,
     "ambient_drift": None,
     "gain_drift": None,
@@ -256,6 +256,17 @@ def test_bad_effect_names_and_effects_a_run_cannot_identify_are_refused():
     same = Run("s", V, np.ones(V.size), T, np.full(V.size, 20.0))
     with pytest.raises(EffectNotIdentifiable, match="same dwell"):
         fit_with_effects(GRID, [same], "ls", [make_effect("thermal_lag")])
+    # dwells read from time stamps: 20 s with a logger's jitter (under 5 %) and a first point of its own
+    jitter = 20.0 + 0.4 * np.random.default_rng(3).random(V.size)
+    jitter[0] = 35.0
+    stamped = Run("j", V, np.ones(V.size), np.cumsum(jitter), jitter)
+    with pytest.raises(EffectNotIdentifiable, match="every measured point but 1 has the same dwell"):
+        fit_with_effects(GRID, [stamped], "ls", [make_effect("thermal_lag")])
+    lag = make_effect("thermal_lag")
+    few, enough = jitter.copy(), jitter.copy()
+    few[1:4], enough[1:5] = 40.0, 40.0  # 4 and 5 points off the common dwell (the first among them)
+    assert "same dwell" in lag.identifiable((Run("f", V, np.ones(V.size), np.cumsum(few), few),), GRID)
+    assert lag.identifiable((Run("e", V, np.ones(V.size), np.cumsum(enough), enough),), GRID) is None
     # a model with creep cannot act on a run without time stamps
     truth, _, _ = _truth("creep")
     untimed = Run("u", V, np.ones(V.size), np.zeros(V.size), np.full(V.size, np.nan))

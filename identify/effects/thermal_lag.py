@@ -58,8 +58,12 @@ DRIVES = ("power", "voltage", "both")
 MAX_FRACTION = 1.0
 #: Step of the secant in a fraction.
 STEP = 0.05
-#: Relative spread below which two dwells count as the same.
-SAME_DWELL = 1e-6
+#: Relative difference below which two dwells count as the same: a logger's overhead and timer jitter
+#: make a "20 s" dwell read 20.0-20.4 s from time stamps (``rig import --dwell-from-time``).
+SAME_DWELL = 0.05
+#: Points whose dwell differs from the most common one needed before the lag is identifiable: a run of
+#: one dwell with its first point different (dwells from time stamps) cannot tell sizes from time constants.
+MIN_VARIED_DWELLS = 5
 #: ``dominant``: the time constants (s) the scan tries before refining the best.
 SCAN_S = tuple(float(x) for x in np.geomspace(0.1, 100.0, 13))
 #: ``dominant``: a mode of the spectrum within this log-distance of the scanned one is left out of the start.
@@ -179,10 +183,13 @@ class ThermalLag(Effect):
             return why
         dwells = np.concatenate([r.dwell_s[r.rows] for r in runs])
         dwells = dwells[np.isfinite(dwells)]
-        if dwells.size == 0 or np.ptp(dwells) <= SAME_DWELL * max(float(np.max(np.abs(dwells))), 1e-300):
-            d = f" ({float(dwells[0]):g} s)" if dwells.size else ""
-            return (f"every measured point has the same dwell{d}, so the lag's time constants and sizes cannot be "
-                    "told apart; record the identification run with varied dwells "
+        common = float(np.median(dwells)) if dwells.size else math.nan
+        others = int(np.sum(np.abs(dwells - common) > SAME_DWELL * abs(common))) if dwells.size else 0
+        if others < MIN_VARIED_DWELLS:
+            d = f" ({common:.3g} s)" if dwells.size else ""
+            but = f" but {others}" if others else ""
+            return (f"every measured point{but} has the same dwell{d}, so the lag's time constants and sizes "
+                    "cannot be told apart; record the identification run with varied dwells "
                     "(rig acquire --sequence damped --dwells 8,15,30,60)")
         return None
 
