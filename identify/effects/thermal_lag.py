@@ -184,7 +184,7 @@ class ThermalLag(Effect):
         dwells = np.concatenate([r.dwell_s[r.rows] for r in runs])
         dwells = dwells[np.isfinite(dwells)]
         common = float(np.median(dwells)) if dwells.size else math.nan
-        others = int(np.sum(np.abs(dwells - common) > SAME_DWELL * abs(common))) if dwells.size else 0
+        others = int(np.sum(np.abs(dwells - common) > SAME_DWELL * abs(common)))  # 0 with no dwell at all
         if others < MIN_VARIED_DWELLS:
             d = f" ({common:.3g} s)" if dwells.size else ""
             but = f" but {others}" if others else ""
