@@ -21,7 +21,7 @@ import numpy as np
 
 from identify import Grid
 
-from .checksums import read_checked
+from .checksums import read_appended, read_checked
 from .errors import DataFileError
 from .lock import held_by_other
 from .models import ModelRecord, read_model_group
@@ -59,6 +59,10 @@ class Session:
     #: How the session wants to be identified (root attribute ``identify_recipe``), written by ``rig acquire``;
     #: None for a session that records none (every session written before it existed, imports, tracking runs).
     recipe: IdentifyRecipe | None = None
+    #: Whether the last chunk of ``/samples`` fails its checksum because its writer died while appending to
+    #: it (a session still ``running``): its rows up to the table's length were read unverified, which is
+    #: safe for a cut append (:mod:`sessions.checksums`).  Resuming writes them back checked.
+    cut_append: bool = False
 
     # ------------------------------------------------------------ status
     @property
@@ -311,7 +315,8 @@ def check_header(path: Path, f: h5py.File) -> int:
 def _read(path: Path, f: h5py.File) -> Session:
     version = check_header(path, f)
     a = f.attrs
-    raw = read_checked(_dataset(f, "samples", SAMPLE_DTYPE))
+    events = read_events(_dataset(f, "log", EVENT_DTYPE))
+    raw, cut = read_appended(_dataset(f, "samples", SAMPLE_DTYPE), cut_append=events[-1].status is Status.RUNNING)
     n = valid_rows(raw)
     samples = sample_columns(raw, n)
     excitation = read_excitation(f["excitation"])
@@ -330,11 +335,12 @@ def _read(path: Path, f: h5py.File) -> Session:
         quantities=Quantities(**{k: _text(a[k]) for k in Quantities.__dataclass_fields__}),
         excitation=excitation,
         samples=samples,
-        events=read_events(_dataset(f, "log", EVENT_DTYPE)),
+        events=events,
         models={name: read_model_group(models[name]) for name in models},
         calibration=read_calibration(f),
         extra=extra_columns(raw, n),
         recipe=read_recipe(a),
+        cut_append=cut,
     )
 
 
@@ -388,7 +394,10 @@ class SessionFollower:
         size = self._samples.shape[0]
         if size <= self._n:
             return np.empty(0, SAMPLE_DTYPE)
-        tail = self._samples[self._n : size]
+        # a live writer rewrites the last chunk at every append: a read that meets it half-written
+        # still holds every row up to ``size`` whole (sessions.checksums)
+        tail, _ = read_appended(self._samples, self._n, cut_append=True)
+        tail = tail[: size - self._n]
         ok = tail["index"] == np.arange(self._n, size)
         new = sample_columns(tail, tail.size if ok.all() else int(np.argmin(ok)))
         self._n += new.size

@@ -48,7 +48,7 @@ import numpy as np
 
 from interrupts import delay_keyboard_interrupt
 
-from .checksums import create_checked
+from .checksums import create_checked, read_appended
 from .errors import DataFileError, StorageError
 from .lock import WriterLock
 from .log import append_event
@@ -131,12 +131,16 @@ def write_layout(
         group = f.create_group("models")
         for record in models:
             write_model_group(group, record)
-    dtype = samples_dtype(sample_columns)
-    f.create_dataset(
+    create_samples_table(f, samples_dtype(sample_columns))
+    f.create_dataset("log", shape=(0,), maxshape=(None,), dtype=EVENT_DTYPE, chunks=(16,))
+
+
+def create_samples_table(f: h5py.File, dtype: np.dtype) -> h5py.Dataset:
+    """An empty ``/samples`` of row type ``dtype``: grown by appends, chunked, each chunk checksummed."""
+    return f.create_dataset(
         "samples", shape=(0,), maxshape=(None,), dtype=dtype, chunks=(SAMPLE_CHUNK,),
         fillvalue=samples_fill(dtype), fletcher32=True,
     )
-    f.create_dataset("log", shape=(0,), maxshape=(None,), dtype=EVENT_DTYPE, chunks=(16,))
 
 
 def write_calibration(f: h5py.File, calibration: CalibrationRecord) -> None:
@@ -274,8 +278,21 @@ class SessionWriter:
             if session.n_samples >= session.excitation.n_points:
                 raise DataFileError(f"{path}: every planned point is already recorded")
 
+        cut_append = False
+
         def trim(dst: h5py.File, session) -> None:
-            dst["samples"].resize((session.n_samples,))
+            nonlocal cut_append
+            cut_append = session.cut_append
+            if not cut_append:
+                dst["samples"].resize((session.n_samples,))
+                return
+            # the writer died inside an append: the copy's last chunk still fails its checksum, so its rows
+            # (whole, sessions.checksums) go into a fresh table whose checksums hold again
+            rows, _ = read_appended(dst["samples"], cut_append=True)
+            del dst["samples"]
+            table = create_samples_table(dst, rows.dtype)
+            table.resize((session.n_samples,))
+            table[:] = rows[: session.n_samples]
 
         reserve = Reserve(path)
         try:  # the room to finish a run, and then for a copy of the session, before anything is touched
@@ -303,7 +320,8 @@ class SessionWriter:
             lock.release()
             reserve.free()
             raise
-        writer.log("reopened", reason or f"continuing at point {writer.count}")
+        cut = " (the last samples chunk was cut by the writer's death; its rows were kept)" if cut_append else ""
+        writer.log("reopened", (reason or f"continuing at point {writer.count}") + cut)
         return writer
 
     # ------------------------------------------------------------ writing
