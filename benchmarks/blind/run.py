@@ -274,8 +274,14 @@ def _rejudge(directory: str) -> dict[str, Any]:
 
 
 def _worker_init() -> None:
+    """One BLAS thread per worker: the workers already share the cores.  The environment variables reach
+    only libraries not yet loaded; a forked worker inherits a loaded OpenBLAS, which threadpoolctl limits
+    (without it, two workers were seen running four busy threads on two cores)."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1)
 
 
 def _job(args: tuple[dict[str, Any], float, str | None]) -> dict[str, Any]:
