@@ -80,12 +80,6 @@ MOST = 0.75
 #: A second effect must take away at least this share of what the first leaves of the excess; see
 #: :meth:`Evidence.decide`.
 SECOND_SHARE = 0.5
-#: ... and at least this share of the whole excess: a second effect that takes less stands within the form
-#: mismatch of the first (another author's form of the first effect, fitted by the library's family, leaves a
-#: few per cent that any flexible second candidate picks up).  Set on seen generators (``gen_b`` dev seeds
-#: 1-3, the ``gen_c`` and ``gen_d`` headlines, the shared FORC file): wrong second names took 0.023-0.052 of
-#: the excess, right ones 0.10-0.13 and more; the headline that measures it is a generator that never saw it.
-SECOND_MIN = 0.08
 
 #: At most this many rivals are named by an ``ambiguous`` verdict (best first).
 MAX_RIVALS = 3
@@ -302,7 +296,7 @@ class Evidence:
             takes = gain2 / left_by_first if left_by_first > 0 else 0.0
             needed = share is not None and share < MOST
             alone = z[j] >= Z_SIGNIFICANT and gain[j] > 0  # a second effect stands on its own too
-            if alone and takes >= SECOND_SHARE and gain2 / excess >= SECOND_MIN and (joint_share >= MOST or not needed):
+            if alone and takes >= SECOND_SHARE and (joint_share >= MOST or not needed):
                 steps = ({"effect": names[best], "shrink": float(shrink[best]), "share_closed": share,
                           "z": float(z[best])},
                          {"effect": names[j], "shrink": float(1.0 - np.sqrt(mse_pair / self.mse[best])),
