@@ -396,8 +396,7 @@ class SessionFollower:
             return np.empty(0, SAMPLE_DTYPE)
         # a live writer rewrites the last chunk at every append: a read that meets it half-written
         # still holds every row up to ``size`` whole (sessions.checksums)
-        tail, _ = read_appended(self._samples, self._n, cut_append=True)
-        tail = tail[: size - self._n]
+        tail, _ = read_appended(self._samples, self._n, cut_append=True)  # rows self._n to size
         ok = tail["index"] == np.arange(self._n, size)
         new = sample_columns(tail, tail.size if ok.all() else int(np.argmin(ok)))
         self._n += new.size

@@ -32,13 +32,19 @@ def flip_bit(path, dataset: str, index: int, bit: int) -> tuple[float, float]:
         offset = ds.id.get_chunk_info(0).byte_offset if ds.chunks else ds.id.get_offset()
         before = float(ds[()].flat[index])
     where = offset + 8 * index
+    flip_file_bit(path, where + bit // 8, bit % 8)
+    with open(path, "rb") as fh:
+        fh.seek(where)
+        return before, struct.unpack("<d", fh.read(8))[0]
+
+
+def flip_file_bit(path, where: int, bit: int) -> None:
+    """Flip bit ``bit`` of the byte at file offset ``where``."""
     with open(path, "r+b") as fh:
         fh.seek(where)
-        raw = bytearray(fh.read(8))
-        raw[bit // 8] ^= 1 << (bit % 8)
+        b = fh.read(1)[0]
         fh.seek(where)
-        fh.write(raw)
-    return before, struct.unpack("<d", bytes(raw))[0]
+        fh.write(bytes([b ^ (1 << bit)]))
 
 
 def point_at(path, volts: float) -> int:
@@ -139,11 +145,7 @@ def test_an_append_cut_by_the_writers_death_keeps_every_row_before_it_and_resume
 def flip_sample_byte(path, chunk: int, byte: int = 10) -> None:
     with open_hdf5(path) as f:
         offset = f["samples"].id.get_chunk_info(chunk).byte_offset
-    with open(path, "r+b") as fh:
-        fh.seek(offset + byte)
-        b = fh.read(1)
-        fh.seek(offset + byte)
-        fh.write(bytes([b[0] ^ 1]))
+    flip_file_bit(path, offset + byte, 0)
 
 
 def test_a_failing_chunk_before_the_last_or_in_a_finished_session_is_still_an_error(tmp_path):
