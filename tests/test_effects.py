@@ -288,6 +288,49 @@ def test_a_drift_of_another_run_is_re_estimated_held_out_when_validating():
     assert rep.rmse < 0.2 * plain  # the held-out drift takes most of it away
 
 
+def _gain_about(pivot_fraction):
+    """Noise-free readings of ``TRUE`` with a gain drift (a slow bump, about 4 % peak) about a sensor zero
+    at ``pivot_fraction`` of the output's range; the zero (um) and the clean output."""
+    clean = predict_run(TRUE, run_of(np.zeros(V.size)))
+    pivot = float(clean.min() + pivot_fraction * np.ptp(clean))
+    g = 0.04 * np.exp(-(((T - 0.6 * T[-1]) / (0.2 * T[-1])) ** 2))
+    return clean + (clean - pivot) * g, pivot, clean
+
+
+def test_a_gain_drift_pivots_about_the_sensor_zero_where_the_fit_finds_it():
+    y, pivot, clean = _gain_about(1.0)
+    assert np.allclose(y[np.abs(clean - pivot) < 1e-12], clean[np.abs(clean - pivot) < 1e-12])
+    fit = fit_with_effects(GRID, [run_of(y)], "ls", [make_effect("gain_drift")])
+    (gain,) = fit.model.effects
+    span = float(np.ptp(clean))
+    # the fit's pivots are fractions of its own output's range, so it lands within a grid step of the truth
+    assert abs(gain.pivot_um - pivot) <= 0.15 * span
+    plain = fit_with_effects(GRID, [run_of(y)], "ls", [])
+    # a gain about the reading's zero (0 um, mid-loop here) cannot follow it: the pivot is what closes it
+    assert abs(pivot) > 0.4 * span
+    assert fit.rmse < 0.2 * plain.rmse
+    assert gain.report()["pivot_um"] == gain.pivot_um
+    # stored and read back, the zero stays; on another run the same sensor keeps it, its drift its own
+    back = model_from_dict(model_to_dict(fit.model))
+    assert back.effects[0].pivot_um == gain.pivot_um
+    other = gain.for_another_run()
+    assert not other.fitted and other.pivot_known and other.pivot_um == gain.pivot_um
+    assert len(other.settings_grid()) < len(EFFECTS["gain_drift"]().settings_grid())
+
+
+def test_a_gain_drift_stored_without_a_pivot_reads_as_about_the_reading_zero():
+    params = _drift_params()
+    old = EFFECTS["gain_drift"](params)  # as stored before the pivot was a setting
+    assert old.pivot_um == 0.0
+    u = np.linspace(1.0, 3.0, V.size)
+    run = run_of(np.zeros(V.size))
+    assert np.allclose(old.contribution(run, u), u * old.gain(run))
+    moved = EFFECTS["gain_drift"]({**params, "pivot_um": 2.0})
+    assert np.allclose(moved.contribution(run, u), (u - 2.0) * moved.gain(run))
+    with pytest.raises(IdentifyError, match="pivot_um"):
+        EFFECTS["gain_drift"]({**params, "pivot_um": float("nan")})
+
+
 # ---------------------------------------------------------------- the command line
 def _session(tmp_path, y, name="fit.h5", dwell=None):
     """A real session file of the design above with outputs ``y``: time stamps and dwells recorded."""

@@ -341,6 +341,12 @@ class Effect(ABC):
         """Largest plausible ``|coefficient|`` by label, where physics bounds it (the diagnosis's visibility test)."""
         return {}
 
+    def for_another_run(self) -> "Effect":
+        """(:attr:`per_run` effects) An unfitted effect for another run of the same rig, to be estimated on
+        that run alone: what belongs to the rig, not the run, is kept (a gain drift's sensor zero).
+        Default: a fresh one."""
+        return type(self)()
+
     def knows_run(self, run_name: str) -> bool:
         """(:attr:`per_run` effects) Whether it was fitted on a run of this name (its parameters hold that
         run's realisation under ``"runs"``); other effects know every run."""

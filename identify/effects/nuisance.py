@@ -47,7 +47,7 @@ def held_out_prediction(model: PreisachModel, run: Run) -> tuple[np.ndarray, dic
     gap = run.outputs[rows] - prediction[rows]
     done: dict[str, Any] = {}
     for e in unknown:
-        fresh = type(e)()
+        fresh = e.for_another_run()
         settings = fresh.settings_grid()
         designs = []
         for s in settings:
