@@ -480,3 +480,14 @@ def test_ambient_drift_secants_are_one_replay_per_spline_to_the_bit(form):
     one_by_one = np.column_stack([(ctx.response(0, moved_input(v, d + step * basis[:, j], form)) - base) / step
                                   for j in range(basis.shape[1])])
     assert np.array_equal(cols.values[0], one_by_one)
+
+
+def test_a_drift_spline_never_has_more_spans_than_a_quarter_of_the_points():
+    n = 40
+    days = run_of(np.zeros(n), v=np.linspace(0.5, 3.5, n), dwell=np.full(n, 86400.0), t=86400.0 * np.arange(1, n + 1))
+    knots = time_knots(days, 200.0)
+    assert np.unique(knots).size - 1 == n // 4  # spans, not 17,000 of 200 s
+    assert splines_at(knots, days.t_s).shape == (n, n // 4 + 3)
+    # a run dense in time keeps its spans about every knot_s
+    dense = run_of(np.zeros(V.size))
+    assert np.unique(time_knots(dense, 600.0)).size - 1 == int(np.ptp(T) // 600.0) + 1

@@ -25,6 +25,8 @@ KNOT_S = 600.0
 DRIFT_KNOTS_S = (600.0, 200.0)
 #: Degree of the drift splines.
 DEGREE = 3
+#: At least this many measured points per knot span of a drift's splines (a run sparse in time gets wider spans).
+POINTS_PER_SPAN = 4
 
 
 def time_knots(run: Run, knot_s: float = KNOT_S) -> np.ndarray | None:
@@ -34,7 +36,10 @@ def time_knots(run: Run, knot_s: float = KNOT_S) -> np.ndarray | None:
     lo, hi = float(tm.min()), float(tm.max())
     if hi <= lo:
         return None
-    inner = np.linspace(lo, hi, int((hi - lo) // knot_s) + 2)
+    # never more spans than a quarter of the measured points (a run of day-long dwells would otherwise
+    # carry a spline coefficient every few minutes of nothing)
+    spans = min(int((hi - lo) // knot_s) + 1, max(tm.size // POINTS_PER_SPAN, 1))
+    inner = np.linspace(lo, hi, spans + 1)
     return np.concatenate([[lo] * DEGREE, inner, [hi] * DEGREE])
 
 
