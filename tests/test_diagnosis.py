@@ -306,10 +306,10 @@ def test_no_effect_is_no_gap_and_bad_check_points_are_reported_not_fatal():
 def test_thermal_lag_cannot_be_seen_when_every_dwell_is_long():
     fit, check = synthetic(GRID, seed=5)
 
-    def hourly(r):
-        return Run(r.name, r.inputs, r.outputs, np.cumsum(np.full(r.n, 3600.0)), np.full(r.n, 3600.0), 4)
+    def daily(r):  # the slowest mode of the spectrum (30 min) settles 48 times over in a day
+        return Run(r.name, r.inputs, r.outputs, np.cumsum(np.full(r.n, 86400.0)), np.full(r.n, 86400.0), 4)
 
-    d = diagnose([hourly(fit)], [hourly(check)], GRID)
+    d = diagnose([daily(fit)], [daily(check)], GRID)
     lag = d.score("thermal_lag")
     assert not lag.visible and "input design" in lag.note
     assert "thermal_lag" in {c.effect for c in d.candidates if not c.visible}

@@ -56,7 +56,7 @@ from identify.model_json import model_from_dict, model_to_dict
 
 TRUTHS = {
     "thermal_lag": {"drive": "power", "time_constants_s": list(LAG_TAUS),
-                    "fractions": [0.0, 0.0, 0.0, 0.1, 0.0, 0.15, 0.0, 0.0, 0.0, 0.0]},
+                    "fractions": [0.1 if j == 3 else 0.15 if j == 5 else 0.0 for j in range(len(LAG_TAUS))]},
     "baseline_drift": None,
     "ambient_drift": None,
     "gain_drift": None,

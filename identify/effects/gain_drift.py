@@ -46,7 +46,7 @@ from .bases import KNOT_S, centred_first, drift_bases, per_run_columns, run_spli
 #: Where the sensor's zero may sit, as fractions of the range of the model's output over the runs (beside the
 #: reading's zero): the spot crosses the PSD's centre somewhere on the loop (an operator centres it).  Zeros
 #: outside the loop were tried (-0.25 and 1.25) and taken back: a gain about a far zero is an offset drift
-#: with a little gain, and it took baseline drifts' names (see docs/results/2026-11-29-gain-pivot-and-creep-carry.md).
+#: with a little gain, and it took baseline drifts' names (see docs/results/2026-11-29-gain-pivot-and-slow-lag.md).
 PIVOTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 
