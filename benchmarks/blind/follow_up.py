@@ -16,9 +16,11 @@ and whose verdict was not a right ``explained`` (or a right ``no_gap``):
    oracle).
 
 When the generator's realisation of the first two runs depends on how many
-runs follow (its noise stream), the after-diagnosis sees other noise on
-them than the before-diagnosis did; :func:`prefix_stable` says whether it
-does, and the table says so.
+runs follow (its noise or timing stream), the after-diagnosis sees other
+readings on them than the before-diagnosis did; :func:`prefix_stable` says
+whether it does.  Then the two re-simulated runs are also diagnosed alone
+(``before_same_readings``), and the table's "before" is that verdict: the
+plan's own effect, not a new realisation's.
 
 Usage::
 
@@ -108,6 +110,13 @@ def follow_up(row: dict[str, Any], keep: Path) -> dict[str, Any]:
     runs = simulate(gen, device, sched3, effects, seed, row["label"], True)
     paths = [import_run(device, r, d / f"{name}3.csv", d / f"{name}3.h5", "--force") for name, r in zip(("fit", "check", "plan"), runs)]
     out["achieved_separation"] = achieved_separation(d / "fit.h5", d / "check.h5", paths[2], disc["between"])
+    if not out["prefix_stable"]:
+        # the same readings without the plan: what the plan changed, apart from the new realisation
+        code, stdout, err = _rig("diagnose", "--fit", str(paths[0]), "--check", str(paths[1]), "--json")
+        if code != 0:
+            return {**out, "after": "error", "reason": err.strip().splitlines()[-1] if err.strip() else f"exit {code}"}
+        same = _verdict(json.loads(stdout))
+        out.update(before_same_readings=classify(row["kind"], row["effects"], same), before_same_readings_verdict=same)
     code, stdout, err = _rig("diagnose", "--fit", str(paths[0]), "--check", str(paths[1]), str(paths[2]), "--json")
     if code != 0:
         return {**out, "after": "error", "reason": err.strip().splitlines()[-1] if err.strip() else f"exit {code}"}
@@ -128,9 +137,18 @@ def _job(args: tuple[dict[str, Any], str]) -> dict[str, Any]:
                 "after": "error", "reason": f"{type(exc).__name__}: {exc}"}
 
 
+def before_of(row: dict[str, Any], followed: dict[str, Any] | None) -> str:
+    """The outcome a case's after-diagnosis is compared with: the benchmark's, or, where the follow-up
+    re-simulated other readings of the first two runs, those readings' own (``before_same_readings``)."""
+    if followed is not None and "before_same_readings" in followed:
+        return followed["before_same_readings"]
+    return row.get("outcome")
+
+
 def table(rows: list[dict[str, Any]], all_rows: list[dict[str, Any]]) -> dict[str, Any]:
     """Per kind (and per family for one library mechanism): cases, right before, right after, wrong before
-    and after, plans written, the median predicted separation (plan, check) and the rig time the plans take."""
+    and after (before: :func:`before_of`), how many were re-simulated with other readings, plans written, the
+    median predicted separation (plan, check) and the rig time the plans take."""
     followed = {(r["seed"], r["label"]): r for r in rows}
     groups: dict[str, list[tuple[dict, dict | None]]] = {}
     for r in all_rows:
@@ -141,12 +159,14 @@ def table(rows: list[dict[str, Any]], all_rows: list[dict[str, Any]]) -> dict[st
     out = {}
     for key, items in sorted(groups.items()):
         after = [f["after"] if f is not None else r.get("outcome") for r, f in items]
+        before = [before_of(r, f) for r, f in items]
         plans = [f["discriminate"] for _, f in items if f is not None and (f.get("discriminate") or {}).get("plan")]
         out[key] = {
             "cases": len(items),
-            "right_before": sum(r.get("outcome") == "right" for r, _ in items),
+            "right_before": sum(b == "right" for b in before),
             "right_after": sum(a == "right" for a in after),
-            "wrong_before": sum(r.get("outcome") == "wrong" for r, _ in items),
+            "wrong_before": sum(b == "wrong" for b in before),
+            "new_realisations": sum(f is not None and "before_same_readings" in f for _, f in items),
             "wrong_after": sum(a == "wrong" for a in after),
             "plans": len(plans),
             "separation_plan": float(np.median([p["predicted_separation"]["plan"] for p in plans])) if plans else None,
@@ -161,12 +181,13 @@ def table(rows: list[dict[str, Any]], all_rows: list[dict[str, Any]]) -> dict[st
 
 def print_table(t: dict[str, Any]) -> None:
     print(f"{'kind':32s} {'cases':>5s} {'right':>11s} {'wrong':>9s} {'plans':>5s} {'S plan/check':>14s} "
-          f"{'achieved':>8s} {'rig h':>6s}")
+          f"{'achieved':>8s} {'rig h':>6s} {'new readings':>12s}")
     for key, r in t.items():
         sep = "" if r["separation_plan"] is None else f"{r['separation_plan']:.1f}/{r['separation_check']:.1f}"
         print(f"{key:32s} {r['cases']:5d} {r['right_before']:4d} -> {r['right_after']:3d} "
               f"{r['wrong_before']:3d} -> {r['wrong_after']:2d} {r['plans']:5d} {sep:>14s} "
-              f"{'' if r['achieved'] is None else format(r['achieved'], '.1f'):>8s} {r['rig_time_s'] / 3600:6.1f}")
+              f"{'' if r['achieved'] is None else format(r['achieved'], '.1f'):>8s} {r['rig_time_s'] / 3600:6.1f} "
+              f"{r['new_realisations']:12d}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -185,7 +206,7 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(r)
             disc = r.get("discriminate") or {}
             sep = disc.get("predicted_separation") or {}
-            print(f"  {r['seed']} {r['label']:36s} {r['before']:6s} -> {r.get('after', ''):6s} "
+            print(f"  {r['seed']} {r['label']:36s} {r.get('before_same_readings', r['before']):6s} -> {r.get('after', ''):6s} "
                   f"plan {'yes' if disc.get('plan') else 'no ':3s} S {sep.get('plan') or 0:6.1f} "
                   f"(check {sep.get('check') or 0:6.1f}) achieved {r.get('achieved_separation')} "
                   f"{(r.get('after_verdict') or {}).get('status', r.get('reason', ''))} "
