@@ -71,6 +71,12 @@ class GainDrift(Effect):
     needs_output = True
     from_base = True
 
+    def __init__(self, params: dict[str, Any] | None = None, fixed_pivot_um: float | None = None) -> None:
+        super().__init__(params)
+        #: The sensor's zero when it is known already (another run of a fitted model's sensor), um; None:
+        #: a setting chooses it.
+        self.fixed_pivot_um = fixed_pivot_um
+
     def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
         if not isinstance(params.get("runs"), dict):
             raise IdentifyError(f"effect {self.name!r} needs 'runs': {{run name: spline}}")
@@ -78,12 +84,6 @@ class GainDrift(Effect):
         if not isinstance(pivot, (int, float)) or not np.isfinite(pivot):
             raise IdentifyError(f"effect {self.name!r}: 'pivot_um' must be a finite number (um)")
         return {"runs": params["runs"], "pivot_um": float(pivot)}
-
-    def __init__(self, params: dict[str, Any] | None = None, fixed_pivot_um: float | None = None) -> None:
-        super().__init__(params)
-        #: The sensor's zero when it is known already (another run of a fitted model's sensor), um; None:
-        #: a setting chooses it.
-        self.fixed_pivot_um = fixed_pivot_um
 
     @property
     def pivot_known(self) -> bool:

@@ -52,7 +52,7 @@ from ..runs import Run
 from .base import INPUT, Columns, Context, Effect, finite_array, needs_dwell, needs_heater, single_columns
 
 #: The modes' time constants (s): log-spaced from a fast beam to a slow package and holder.  Up to 5 min
-#: until 2026-11-29: a lag of 15 min on a tuning generator was then named an ambient drift (the room seems
+#: until 2026-11-29: a lag mostly of 10-14 min paths on a tuning generator was then named an ambient drift (the room seems
 #: to warm with the heating history), see docs/results/2026-11-29-gain-pivot-and-slow-lag.md.
 TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(0.5, 1800.0, 12))
 #: What drives the modes (a setting): power, voltage, or both (a spectrum of each: a mixed drive).
