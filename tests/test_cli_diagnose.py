@@ -48,6 +48,7 @@ def test_json_follows_the_contract_and_names_the_effect(creep_runs, tmp_path):
     v = out["verdict"]
     assert {"status", "effect", "shrink"} <= set(v)
     assert v["status"] == "explained" and v["effect"] == "creep"
+    assert v["look_alikes"] == {}  # no mechanism outside the library is known to look like creep
     best = out["candidates"][0]
     assert best["effect"] == "creep" and v["shrink"] == pytest.approx(best["shrink"])
     assert best["rmse_um"] == pytest.approx(out["baseline"]["rmse_um"] * (1 - best["shrink"]))
@@ -109,3 +110,14 @@ def test_bad_input_is_one_line_and_exit_2(creep_runs, tmp_path):
     write_trace(far, Trace(np.arange(20.0), np.full(20, 6.5), np.zeros(20)))
     assert_one_line_error(rig_here("diagnose", "--fit", fit, "--check", far, "--v-max", 6.0),
                           "inside the identification range")
+
+
+def test_the_verdict_names_what_else_a_named_family_reaches():
+    from identify.effects import EFFECTS
+    from rig.diagnosis.report import look_alikes
+
+    got = look_alikes(["creep", "ambient_drift", "no_such_effect", "sensor_nonlinearity"])
+    assert list(got) == ["ambient_drift", "sensor_nonlinearity"]
+    assert got["ambient_drift"] == list(EFFECTS["ambient_drift"].look_alikes)
+    assert any("heater" in a for a in got["ambient_drift"])  # a heater ageing changes the rise per volt too
+    assert look_alikes([]) == {}

@@ -54,6 +54,8 @@ def drift_settings(**extra: float | str) -> list[dict[str, float]]:
 class AmbientDrift(Effect):
     name = "ambient_drift"
     summary = "the room temperature drifts, shifting where the transition happens (on the input)"
+    look_alikes = ("the heater's rise per volt drifting with use (its film annealing or ageing)",
+                   "the transition moving with the film's use (training)")
     stage = INPUT
     per_run = True
     must_record = (needs_heater, needs_time)

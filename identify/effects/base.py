@@ -229,6 +229,9 @@ class Effect(ABC):
     name: ClassVar[str]
     #: One line for reports.
     summary: ClassVar[str]
+    #: Mechanisms the library does not hold that this family also reaches, each in a few words: the verdict
+    #: names them beside the effect, since the runs cannot tell them apart (only what is known of the rig can).
+    look_alikes: ClassVar[tuple[str, ...]] = ()
     #: The stage it acts at: :data:`INPUT`, :data:`OUTPUT` or :data:`SENSOR`.
     stage: ClassVar[str]
     #: A nuisance that differs from run to run (a drift), fitted per run.

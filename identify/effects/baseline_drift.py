@@ -25,6 +25,7 @@ from .bases import KNOT_S, centred_first, drift_bases, per_run_columns, run_spli
 class BaselineDrift(Effect):
     name = "baseline_drift"
     summary = "the sensor zero drifts over session time (laser pointing, mechanics)"
+    look_alikes = ("the loop changing slowly with use (training or fatigue of the film)",)
     stage = OUTPUT
     per_run = True
     must_record = (needs_time,)

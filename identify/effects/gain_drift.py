@@ -63,6 +63,7 @@ def output_range(ctx: Context) -> tuple[float, float]:
 class GainDrift(Effect):
     name = "gain_drift"
     summary = "the sensor's sensitivity drifts over session time (laser power, alignment)"
+    look_alikes = ("the loop's size changing slowly with use (training or fatigue of the film)",)
     stage = OUTPUT
     per_run = True
     must_record = (needs_time,)

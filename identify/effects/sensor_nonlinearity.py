@@ -43,6 +43,8 @@ def natural_basis(z: np.ndarray, knots: np.ndarray) -> np.ndarray:
 class SensorNonlinearity(Effect):
     name = "sensor_nonlinearity"
     summary = "the sensor reading is a smooth nonlinear (e.g. saturating) function of the deflection"
+    look_alikes = ("any static map of the deflection on its way to the reading (reflections on the PSD, the "
+                   "spot's size, a saturating amplifier)",)
     stage = SENSOR
     inversion = "sensor"
 

@@ -86,6 +86,7 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
             "model": kept_json(d, fit),
             "effects": list(d.verdict.effects) if d.verdict.status == "explained" else [],
             "steps": [dict(step) for step in d.verdict.steps] if d.verdict.status == "explained" else [],
+            "look_alikes": look_alikes(_named(d)),
         },
         "not_assessed": [{"effect": e, "reason": r} for e, r in d.not_assessed],
         "warnings": list(warnings) + list(d.warnings),
@@ -96,6 +97,22 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
         "units": {"input": d.input_unit, "output": d.output_unit},
         "drift_monitor": drift_monitor,
     }
+
+
+def look_alikes(names) -> dict[str, list[str]]:
+    """For each effect of ``names`` that has them, the mechanisms outside the library its family also reaches
+    (:attr:`identify.effects.Effect.look_alikes`), ``{effect: [description, ...]}``."""
+    from identify.effects import EFFECTS
+
+    return {n: list(EFFECTS[n].look_alikes) for n in names if n in EFFECTS and EFFECTS[n].look_alikes}
+
+
+def _named(d: Diagnosis) -> tuple[str, ...]:
+    """The effects the verdict puts forward: those explained, or the rivals of an ambiguity."""
+    v = d.verdict
+    if v.status == "explained":
+        return tuple(v.effects) or ((v.effect,) if v.effect else ())
+    return tuple(v.rivals or v.contenders) if v.status == "ambiguous" else ()
 
 
 def _rmse_with(d: Diagnosis, leading) -> float | None:
@@ -173,6 +190,9 @@ def to_text(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
         "cannot_tell": "CANNOT TELL",
     }[v.status]
     lines.append(f"Verdict: {headline} -- {v.reason}.")
+    for name, alikes in look_alikes(_named(d)).items():
+        lines.append(f"  Looks like {name} too, and not in the library: {'; '.join(alikes)}. These runs cannot "
+                     f"tell them apart; what is known of the rig can.")
     noise = d.noise
     if d.floor_kind == "bound":
         floor = (f"noise floor not measured; at most {_fmt(d.noise_floor_um)} {u} (an upper bound from the base "
