@@ -174,6 +174,9 @@ def fit_run(
     with blas_threads_for(grid.n_cells + 2):  # the joint fit's many solves and products, on one thread when small
         joint = fit_with_effects(grid, [run], method, chosen, thermal_term=thermal_term, settings=settings,
                                  mapper=mapper)
+    info = {**joint.info, "base_rmse": joint.base_rmse, "effect_settings": joint.settings}
+    if any(e.loop() is not None for e in joint.model.effects):
+        info["simulated_rmse"] = simulated_rmse(joint.model, run)
     return FitReport(
         method=method,
         settings=dict(joint.method_settings),
@@ -184,5 +187,15 @@ def fit_run(
         nrmse=joint.nrmse,
         max_abs=joint.max_abs,
         seconds=joint.seconds,
-        info={**joint.info, "base_rmse": joint.base_rmse, "effect_settings": joint.settings},
+        info=info,
     )
+
+
+def simulated_rmse(model: PreisachModel, run: Run) -> float:
+    """The rms error (um) of ``model`` predicting ``run`` on its own, over its measured points: what a stored
+    model does on any run.  A model whose hysterons feel the output (``interaction``) is *fitted* with the
+    measured output fed back, so its fit error can be far smaller than this."""
+    from .effects.compose import predict_run
+
+    rows = run.rows
+    return float(np.sqrt(np.mean((predict_run(model, run)[rows] - run.outputs[rows]) ** 2)))

@@ -59,6 +59,8 @@ def report_dict(report: FitReport, thermal_term: bool, seed: int | None) -> dict
     extra = {}
     if report.model.effects:
         extra = {"effect_settings": report.info.get("effect_settings")}
+    if report.info.get("simulated_rmse") is not None:
+        extra["simulated_rmse_um"] = report.info["simulated_rmse"]
     return {
         "method": report.method,
         **model_to_dict(report.model),

@@ -367,6 +367,32 @@ def test_rig_identify_with_stores_the_effects_and_predict_and_validate_use_them(
     assert val.json()["effects"] == ["joule_power"] and val.json()["rmse"] < 1e-8
 
 
+def test_a_fed_back_fit_says_how_the_model_predicts_its_run_on_its_own(tmp_path):
+    from identify.fit import fit_run, simulated_rmse
+
+    # noise-free data of a true mean field: fed back or not, the model reproduces its run
+    truth, _, y = _truth("interaction")
+    run = run_of(y)
+    report = fit_run(GRID, run, "ls", [make_effect("interaction")])
+    assert report.info["simulated_rmse"] == pytest.approx(simulated_rmse(report.model, run))
+    assert report.info["simulated_rmse"] < 1e-6 * float(np.ptp(y))
+    # without a loop there is nothing fed back, and nothing to say
+    assert "simulated_rmse" not in fit_run(GRID, run, "ls", [make_effect("joule_power")]).info
+    # a model whose mean field the data do not hold: the fit leans on the measured output, its own
+    # prediction does not, and the command line says how far apart they are
+    rng = np.random.default_rng(3)
+    plain = predict_run(replace(TRUE, effects=()), run_of(np.zeros(V.size))) + 0.3 * np.sin(T / 900.0)
+    path = _session(tmp_path, plain + 0.002 * rng.standard_normal(V.size))
+    out = rig("identify", path, "--with", "interaction", "--json", "--no-store")
+    assert out.code == 0, out.err
+    js = out.json()
+    fitted = fit_run(GRID, run_of(plain), "ls", [make_effect("interaction")])
+    assert js["simulated_rmse_um"] > js["rmse_um"]  # the fit minimised the fed-back error, not this one
+    assert fitted.info["simulated_rmse"] == pytest.approx(simulated_rmse(fitted.model, run_of(plain)))
+    text = rig("identify", path, "--with", "interaction", "--no-store")
+    assert text.code == 0 and "on its own" in text.out
+
+
 def test_rig_identify_with_bad_effects_is_one_line_and_changes_nothing(tmp_path):
     truth, _, y = _truth("joule_power")
     path = _session(tmp_path, y)

@@ -86,6 +86,10 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
     return targets
 
 
+#: A model fitted with its output fed back (``interaction``) whose own prediction of the run is this many times
+#: worse than the model without effects is said to be so.
+FED_BACK_WORSE = 1.0
+
 @click.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--levels", "-L", type=int,
@@ -245,6 +249,13 @@ def _print_one(job, report) -> None:
               m.mu0, m.c_d, report.seconds]],
         )
     )
+    simulated, base = report.info.get("simulated_rmse"), report.info.get("base_rmse")
+    if simulated is not None:
+        click.echo(f"on its own (the output not fed back as measured) the model predicts this run to "
+                   f"{simulated:.4g} {u} rms")
+        if base is not None and simulated > FED_BACK_WORSE * base:
+            click.echo(f"warning: that is worse than the model without effects ({base:.4g} {u}): the fit leaned on "
+                       f"the measured output fed back, and the model will mispredict other runs", err=True)
     if job.store_as is not None:
         click.echo(f"stored as /models/{job.store_as} in {job.path}")
 
