@@ -354,3 +354,16 @@ def test_the_linearised_base_fit_reproduces_its_predictions(method):
 def library_names():
     """Every candidate: the effects and the resolution candidate."""
     return list(NAMES)
+
+
+def test_on_the_check_runs_the_hysterons_feel_the_model_not_the_readings():
+    # a mean field fed the measured output would predict each held-out block from its own readings
+    from identify.diagnosis.engine import _held_out_gap
+
+    fit, check = synthetic(GRID, lambda v, t: 0.05 * np.sin(t / 700.0))
+    base = fit_base(GRID, [fit])
+    ctx, _ = _held_out_gap(base, (fit,), (check,), (check.rows,))
+    np.testing.assert_array_equal(ctx.feedback[1], ctx.predictions[1])
+    assert not np.allclose(ctx.feedback[1][check.rows], check.outputs[check.rows])  # the readings hold the drift
+    # the identification run keeps its measured output (the fit's own regressor)
+    np.testing.assert_array_equal(ctx.feedback[0][fit.rows], fit.outputs[fit.rows])

@@ -459,6 +459,9 @@ def _held_out_gap(base: BaseFit, fit_runs: tuple[Run, ...], used: tuple[Run, ...
     by run, with the gap the model leaves there (um) and the features of each point."""
     n_fit = len(fit_runs)
     ctx = Context.of_model(base.model, fit_runs + used, n_fit)
+    # on the check runs the hysterons feel the model's own output, not the measured one: a mean field fed
+    # the measured output would predict each held-out block from that block's own readings
+    ctx = replace(ctx, feedback=ctx.feedback[:n_fit] + ctx.predictions[n_fit:])
     preds = ctx.predictions[n_fit:]
     regs = np.vstack([base.regressor(run)[r] for run, r in zip(used, rows)])
     measured = np.concatenate([run.outputs[r] for run, r in zip(used, rows)])
