@@ -198,4 +198,4 @@ def simulated_rmse(model: PreisachModel, run: Run) -> float:
     from .effects.compose import predict_run
 
     rows = run.rows
-    return float(np.sqrt(np.mean((predict_run(model, run)[rows] - run.outputs[rows]) ** 2)))
+    return rmse(predict_run(model, run)[rows] - run.outputs[rows])

@@ -81,6 +81,11 @@ def achieved_separation(fit: Path, check: Path, plan: Path, between: list[str]) 
     return achieved(rivals, d.base.model, run, noise_of(d))
 
 
+def _failed(out: dict[str, Any], code: int, err: str) -> dict[str, Any]:
+    """``out`` for a ``rig`` command that exited ``code``: its last line of stderr as the reason."""
+    return {**out, "after": "error", "reason": err.strip().splitlines()[-1] if err.strip() else f"exit {code}"}
+
+
 def follow_up(row: dict[str, Any], keep: Path) -> dict[str, Any]:
     """The before and after of one case (see the module doc)."""
     t0 = time.perf_counter()
@@ -92,7 +97,7 @@ def follow_up(row: dict[str, Any], keep: Path) -> dict[str, Any]:
     code, stdout, err = _rig("diagnose", "--fit", str(d / "fit.h5"), "--check", str(d / "check.h5"), "--json",
                              "--discriminate", str(plan), "--force")
     if code != 0:
-        return {**out, "after": "error", "reason": err.strip().splitlines()[-1] if err.strip() else f"exit {code}"}
+        return _failed(out, code, err)
     disc = json.loads(stdout)["discriminate"]
     out.update(discriminate=disc, design_wall_s=time.perf_counter() - t1)
     if disc["plan"] is None:
@@ -114,12 +119,12 @@ def follow_up(row: dict[str, Any], keep: Path) -> dict[str, Any]:
         # the same readings without the plan: what the plan changed, apart from the new realisation
         code, stdout, err = _rig("diagnose", "--fit", str(paths[0]), "--check", str(paths[1]), "--json")
         if code != 0:
-            return {**out, "after": "error", "reason": err.strip().splitlines()[-1] if err.strip() else f"exit {code}"}
+            return _failed(out, code, err)
         same = _verdict(json.loads(stdout))
         out.update(before_same_readings=classify(row["kind"], row["effects"], same), before_same_readings_verdict=same)
     code, stdout, err = _rig("diagnose", "--fit", str(paths[0]), "--check", str(paths[1]), str(paths[2]), "--json")
     if code != 0:
-        return {**out, "after": "error", "reason": err.strip().splitlines()[-1] if err.strip() else f"exit {code}"}
+        return _failed(out, code, err)
     js = json.loads(stdout)
     out["after_verdict"] = _verdict(js)
     out["after"] = classify(row["kind"], row["effects"], out["after_verdict"])

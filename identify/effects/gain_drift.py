@@ -52,12 +52,9 @@ PIVOTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 def output_range(ctx: Context) -> tuple[float, float]:
     """``(lo, hi)`` of the model's output before output effects over every run of ``ctx`` (um)."""
-    outs = [np.asarray(ctx.bare_output(i), dtype=float) for i in range(len(ctx.runs))]
-    outs = [o[np.isfinite(o)] for o in outs if o.size]
-    if not outs or not any(o.size for o in outs):
-        return 0.0, 0.0
-    both = np.concatenate(outs)
-    return float(both.min()), float(both.max())
+    both = np.concatenate([np.asarray(ctx.bare_output(i), dtype=float) for i in range(len(ctx.runs))] or [[]])
+    both = both[np.isfinite(both)]
+    return (float(both.min()), float(both.max())) if both.size else (0.0, 0.0)
 
 
 class GainDrift(Effect):
@@ -110,14 +107,14 @@ class GainDrift(Effect):
     @property
     def pivot_um(self) -> float:
         """The sensor's zero in the reading's units (um): the fitted one (0 until fitted), or the fixed one."""
-        if self.params is None and self.fixed_pivot_um is not None:
+        if self.params is None and self.pivot_known:
             return self.fixed_pivot_um
         return float((self.params or {}).get("pivot_um", 0.0))
 
     def pivot_at(self, ctx: Context, setting: dict[str, float]) -> float:
         """The pivot ``setting`` stands for on ``ctx`` (um): the fixed one, the reading's zero (no ``pivot``
         key), or a fraction of the output's range."""
-        if self.fixed_pivot_um is not None:
+        if self.pivot_known:
             return self.fixed_pivot_um
         if "pivot" not in setting:
             return 0.0

@@ -90,6 +90,7 @@ def save_targets(save: Path | None, paths: list[Path]) -> list[Path | None]:
 #: worse than the model without effects is said to be so.
 FED_BACK_WORSE = 1.0
 
+
 @click.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--levels", "-L", type=int,
