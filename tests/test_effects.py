@@ -171,6 +171,24 @@ def test_creep_counts_the_rise_from_the_initial_state_into_the_first_point_by_ha
     np.testing.assert_allclose(fit.model.effects[0].params["weights"], smooth.params["weights"], rtol=1e-6)
 
 
+def test_a_two_branch_creep_lags_then_relaxes_back_and_is_recovered_exactly():
+    # fast relaxations of one sign, slow ones of the other: a creep that lags and then comes back
+    from identify.effects.creep import SPLITS, _signs
+
+    assert _signs({"sign": 1.0}, 4).tolist() == [1.0, 1.0, 1.0, 1.0]
+    assert _signs({"sign": -1.0, "split": 1}, 4).tolist() == [-1.0, 1.0, 1.0, 1.0]
+    assert _signs({"sign": 1.0, "split": 3}, 4).tolist() == [1.0, 1.0, 1.0, -1.0]
+    split = next(k for k in SPLITS if k is not None)
+    magnitude = 0.002 + 0.002 * np.arange(len(CREEP_TAUS))  # straight over log tau: the penalty leaves it alone
+    weights = np.where(np.arange(len(CREEP_TAUS)) < split, magnitude, -magnitude)
+    truth = EFFECTS["creep"]({"drive": "output", "time_constants_s": list(CREEP_TAUS), "weights": weights.tolist()})
+    y = predict_run(replace(TRUE, effects=(truth,)), run_of(np.zeros(V.size)))
+    fit = fit_with_effects(GRID, [run_of(y)], "ls", [make_effect("creep")])
+    assert fit.settings["creep"].get("split") == split
+    assert fit.rmse <= 1e-9 * float(np.ptp(y))
+    np.testing.assert_allclose(fit.model.effects[0].params["weights"], weights, rtol=1e-6, atol=1e-9)
+
+
 def test_an_excursion_creep_turns_with_the_output_that_drives_it_by_hand():
     from identify.effects.creep import excursion_steps
 

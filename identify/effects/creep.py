@@ -25,7 +25,11 @@ A change of the output relaxes afterwards (um), and relaxations add up
 
 The kernel is a relaxation spectrum, ``K(t) = s sum_j a_j exp(-t / tau_j)``
 with ``a_j >= 0`` over :data:`TIME_CONSTANTS_S` (2 s to 5.5 h, log-spaced)
-and one sign ``s`` (a setting): it decays monotonically whatever its shape
+and one sign ``s`` (a setting) -- or two branches (the setting ``split``,
+:data:`SPLITS`): ``s`` on the fast time constants, ``-s`` on the slow ones,
+a creep that moves one way and then relaxes back (a fast viscous part and
+a slower one of the other sign, as in a bimorph whose layers relax at
+their own rates).  With one sign it decays monotonically whatever its shape
 -- a single exponential, a stretched exponential, a power law, logarithmic
 creep over the spectrum's span (any completely monotone kernel is such a
 mixture), or logarithmic and Andrade creep that keep growing over the
@@ -51,6 +55,10 @@ from .base import OUTPUT, Columns, Context, Effect, finite_array, needs_reversal
 STILL = 1e-9
 #: Relaxation times of the kernel (s): log-spaced from 2 s to 5.5 h.
 TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(2.0, 20000.0, 9))
+#: Where a two-branch kernel changes sign (a setting): the index of its first slow time constant, or None
+#: for one sign throughout.  A creep that lags and then relaxes back (or overshoots and recovers) is a fast
+#: branch of one sign and a slow one of the other.
+SPLITS = (None, 3, 5)
 #: What drives the relaxation (a setting).
 DRIVES = ("reversal", "output", "phase", "excursion", "phase_excursion")
 #: The drives that follow the phase-transition part of the output (without the bias and the thermal term).
@@ -154,6 +162,14 @@ def _start(ctx: Context, i: int, drive: str) -> float:
     return phase0 if drive in PHASE_DRIVES else u0
 
 
+def _signs(setting: dict[str, float], k: int) -> np.ndarray:
+    """``(k,)``: each time constant's sign: the setting's ``sign``, flipped from index ``split`` on."""
+    signs = np.full(k, float(setting["sign"]))
+    if setting.get("split") is not None:
+        signs[int(setting["split"]):] *= -1.0
+    return signs
+
+
 def _rough(k: int) -> np.ndarray:
     d = np.diff(np.eye(k), n=2, axis=0)
     return d.T @ d
@@ -190,15 +206,17 @@ class Creep(Effect):
         return self.applicable(runs) or needs_reversals(runs, "it relaxes after the output changes direction")
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"drive": d, "sign": s, "smoothing": w} for d in DRIVES for s in (1.0, -1.0) for w in SMOOTHING]
+        return [{"drive": d, "sign": s, "smoothing": w, **({} if k is None else {"split": k})}
+                for d in DRIVES for s in (1.0, -1.0) for k in SPLITS for w in SMOOTHING]
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
-        return [{"drive": d, "sign": s, "smoothing": FIT_SMOOTHING} for d in DRIVES for s in (1.0, -1.0)]
+        return [{"drive": d, "sign": s, "smoothing": FIT_SMOOTHING, **({} if k is None else {"split": k})}
+                for d in DRIVES for s in (1.0, -1.0) for k in SPLITS]
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         taus = np.asarray(TIME_CONSTANTS_S)
         drive = setting.get("drive", "reversal")
-        values = [setting["sign"] * relaxations(r, taus, drive, _driver(ctx, i, drive), _start(ctx, i, drive))
+        values = [_signs(setting, taus.size) * relaxations(r, taus, drive, _driver(ctx, i, drive), _start(ctx, i, drive))
                   for i, r in enumerate(ctx.runs)]
         unit = "um_per_V" if drive == "reversal" else "fraction"  # of the input excursion, or of the change
         labels = tuple(f"{unit}_at_{tau:.3g}s" for tau in taus)
@@ -206,7 +224,7 @@ class Creep(Effect):
         return Columns(tuple(values), labels, (True,) * k, (-1,) * k, _rough(k), setting.get("smoothing", 0.0))
 
     def with_fit(self, ctx, setting, coef, cols) -> "Creep":
-        w = setting["sign"] * np.asarray(coef, dtype=float)
+        w = _signs(setting, len(TIME_CONSTANTS_S)) * np.asarray(coef, dtype=float)
         return Creep({"drive": setting.get("drive", "reversal"), "time_constants_s": list(TIME_CONSTANTS_S),
                       "weights": w.tolist()})
 
