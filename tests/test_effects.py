@@ -149,6 +149,38 @@ def test_the_mean_field_fixed_point_is_exact_and_continuous_by_hand():
         assert u[n] == pytest.approx(TRUE.mu0 + TRUE.c_d * v + state.output, abs=1e-6)
 
 
+@pytest.mark.parametrize("reference", ["insulating", "metallic"])
+def test_a_mean_field_counted_from_a_saturated_state_is_the_middles_on_a_shifted_input_by_hand(reference):
+    # x = v + k (P - P_ref) = (v - k P_ref) + k P: the phase part is the middle-referenced field's on the
+    # input shifted by -k P_ref, and only the thermal term (which sees v) tells the two runs apart
+    k, total = 0.05, float(np.sum(TRUE.density))
+    p_ref = -total if reference == "insulating" else total
+    run = run_of(np.zeros(V.size))
+    ref = replace(TRUE, effects=(EFFECTS["interaction"]({"k": k, "source": "phase", "reference": reference,
+                                                         "reference_um": p_ref}),))
+    mid = replace(TRUE, effects=(EFFECTS["interaction"]({"k": k, "source": "phase"}),))
+    u = deflection(ref, run)
+    np.testing.assert_allclose(deflection(ref, run, feedback=u), u, atol=1e-10)  # self-consistent
+    shifted = run_of(np.zeros(V.size), v=V - k * p_ref)
+    np.testing.assert_allclose(u, deflection(mid, shifted) + TRUE.c_d * k * p_ref, atol=1e-9)
+    assert np.max(np.abs(u - deflection(mid, run))) > 0.05  # the reference matters here
+
+
+@pytest.mark.parametrize("reference", ["insulating", "metallic"])
+def test_a_mean_field_from_a_saturated_state_is_recovered_exactly(reference):
+    # k P_ref shifts the input by a tenth of a cell here; at a third (k = 0.02) the fit's starts fall short
+    total = float(np.sum(TRUE.density))
+    params = {"k": 0.005, "drive": "voltage", "source": "phase", "reference": reference,
+              "reference_um": -total if reference == "insulating" else total}
+    y = predict_run(replace(TRUE, effects=(EFFECTS["interaction"](params),)), run_of(np.zeros(V.size)))
+    fit = fit_with_effects(GRID, [run_of(y)], "ls", [make_effect("interaction")])
+    assert fit.rmse <= 1e-9 * float(np.ptp(y))
+    got = fit.model.effects[0].params
+    assert (got["source"], got["reference"]) == ("phase", reference)
+    assert got["k"] == pytest.approx(0.005, rel=1e-6)
+    assert got["reference_um"] == pytest.approx(params["reference_um"], rel=1e-6)
+
+
 def test_creep_counts_the_rise_from_the_initial_state_into_the_first_point_by_hand():
     # every run starts in negative saturation at initial_V (the sequencer saturates at 0 V); the first
     # set-point is a change of the output like any other, and a slow creep still relaxes from it later

@@ -211,15 +211,17 @@ class Loop:
     """A feedback of the output onto the hysterons' input (:meth:`Effect.loop`), as the prediction's
     fixed point ``x = a + k u`` (``x^2 = a^2 + k u`` when ``drive`` is ``"power"``) needs it: gain ``k``
     (V/um or V^2/um), what drives the input (``voltage`` or ``power``), what the hysterons feel of the output
-    ``u`` (``output``: all of it; ``phase``: its phase-transition part)."""
+    ``u`` (``output``: all of it; ``phase``: its phase-transition part, less ``reference_um``, the phase part
+    where the mean field is zero)."""
 
     k: float
     drive: str = "voltage"
     source: str = "output"
+    reference_um: float = 0.0
 
     def felt(self, output: np.ndarray, mu0: float, c_d: float, thermal: np.ndarray) -> np.ndarray:
-        """What the hysterons feel of ``output`` (um), ``(n,)``: see :func:`felt`."""
-        return felt(output, self.source, mu0, c_d, thermal)
+        """What the hysterons feel of ``output`` (um), ``(n,)``: see :func:`felt`, less ``reference_um``."""
+        return felt(output, self.source, mu0, c_d, thermal) - self.reference_um
 
 
 class Effect(ABC):

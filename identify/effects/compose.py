@@ -117,8 +117,9 @@ def deflection(model: HostModel, run: Run, effects: Iterable[Effect] | None = No
         loop = inter.loop()
         others = [e for e in effects if e is not inter]
         a, thermal = hysteron_inputs(others, run, None, model)
-        b = model.mu0 + model.c_d * thermal + static if loop.source == "output" else np.zeros(run.n)
-        u = _fixed_point(model, a, b, loop.k, loop.drive) + (model.mu0 + model.c_d * thermal
+        # x = a + k (b + P(x)): b the rest of the output, or the phase part's reference taken off P
+        b = model.mu0 + model.c_d * thermal + static if loop.source == "output" else np.full(run.n, -loop.reference_um)
+        u = _fixed_point(model, a, b, loop.k, loop.drive) + (model.mu0 + model.c_d * thermal + loop.reference_um
                                                              if loop.source == "phase" else -static)
     phase = u - model.mu0 - model.c_d * thermal
     return u + static + output_contributions(effects, run, u, which="driven", phase=phase,
