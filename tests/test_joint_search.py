@@ -109,9 +109,9 @@ def test_of_the_starts_of_one_setting_only_the_lowest_takes_the_search_steps(mon
     monkeypatch.setattr(joint._Fitter, "iterate", counted)
     fit = joint.fit_with_effects(GRID, [run], "ls", [make_effect("interaction")])
     grid = make_effect("interaction").fit_settings_grid()
-    groups = {(s["drive"], s["source"]) for s in grid}
+    groups = {(s["drive"], s["source"], s["reference"]) for s in grid}
     assert len(grid) > len(groups)  # there are starts to screen
-    assert sorted((s["drive"], s["source"]) for s in searched) == sorted(groups)  # one start per setting
+    assert sorted((s["drive"], s["source"], s["reference"]) for s in searched) == sorted(groups)  # one start each
     # and the truth is still found from noise-free data: the setting, k and the density
     assert (fit.settings["interaction"]["drive"], fit.settings["interaction"]["source"]) == ("voltage", "phase")
     assert fit.model.effects[0].params["k"] == pytest.approx(0.05, rel=1e-6)
