@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -126,11 +127,13 @@ def test_each_effect_recovers_its_own_parameters_exactly_from_noise_free_data(na
     assert fit.model.c_d == pytest.approx(truth.c_d, abs=1e-7)
 
 
-def test_the_mean_field_fixed_point_is_exact_and_continuous_by_hand():
-    model = replace(TRUE, effects=(EFFECTS["interaction"]({"k": 0.05}),))
+@pytest.mark.parametrize("drive", ["voltage", "power"])
+def test_the_mean_field_fixed_point_is_exact_and_continuous_by_hand(drive):
+    k = 0.05 if drive == "voltage" else 0.2  # V/um, V^2/um: about the same shift
+    model = replace(TRUE, effects=(EFFECTS["interaction"]({"k": k, "drive": drive}),))
     run = run_of(np.zeros(V.size))
     u = deflection(model, run)
-    # self-consistent: the hysterons' input x = v + k u gives u back through the memory curve
+    # self-consistent: the hysterons' input x = v + k u (x^2 = v^2 + k u) gives u back through the memory curve
     np.testing.assert_allclose(deflection(model, run, feedback=u), u, atol=1e-10)
     # and it is the state a quasi-static sweep reaches: sweep the input in tiny steps, solving by iteration
     bare = replace(TRUE, mu0=0.0, c_d=0.0)
@@ -141,7 +144,8 @@ def test_the_mean_field_fixed_point_is_exact_and_continuous_by_hand():
         for s in np.linspace(prev, v, 400)[1:]:
             for _ in range(200):  # contraction: |k P'| < 1 here
                 b = TRUE.mu0 + TRUE.c_d * s
-                x_new = s + 0.05 * (b + state.peek(x))
+                target = s + k * (b + state.peek(x)) if drive == "voltage" else s * s + k * (b + state.peek(x))
+                x_new = target if drive == "voltage" else math.sqrt(max(target, 0.0))
                 if abs(x_new - x) < 1e-13:
                     break
                 x = x_new

@@ -202,18 +202,30 @@ def _first_root(state, walls, v_min, step, a, b, k, x0, p0, drive="voltage") -> 
     if g0 == 0.0:
         return x0
     d = 1.0 if g0 > 0 else -1.0
-    lo, g_lo = x0, g0
+    lo, g_lo, p_lo = x0, g0, p0
     for hi in _breakpoints(state, walls, v_min, step, x0, d):
-        g_hi = g(hi, state.peek(hi))
+        p_hi = state.peek(hi)
+        g_hi = g(hi, p_hi)
         if g_hi * d <= 0:
+            mid = 0.5 * (lo + hi)
             if drive == "voltage":  # P is a quadratic of x on the piece: exact roots
-                mid = 0.5 * (lo + hi)
                 return _quadratic_root(lo, mid, hi, g_lo, g(mid, state.peek(mid)), g_hi, d)
+            if g_hi == 0.0:  # at the breakpoint itself (on power: often 0 V, the root of the clamped target)
+                return hi
+            if a >= 0.0 and min(lo, hi) >= 0.0:
+                # on power, for x >= 0: g > 0 exactly where h = a^2 + k (b + P(x)) - x^2 > 0, and h is a
+                # quadratic of x on the piece: its root is g's, exactly (no iterations)
+                def h(x: float, p: float) -> float:
+                    return a * a + k * (b + p) - x * x
+
+                h_lo, h_hi = h(lo, p_lo), h(hi, p_hi)
+                if h_lo * d > 0 and h_hi * d <= 0:
+                    return _quadratic_root(lo, mid, hi, h_lo, h(mid, state.peek(mid)), h_hi, d)
             from scipy.optimize import brentq
 
             return float(brentq(lambda x: g(x, state.peek(x)), min(lo, hi), max(lo, hi), xtol=1e-15 * step,
                                 rtol=8.9e-16))
-        lo, g_lo = hi, g_hi
+        lo, g_lo, p_lo = hi, g_hi, p_hi
     # beyond the grid P is constant: the input goes where the constant output puts it
     return _target(a, k, b, state.peek(lo + d * step), drive)
 
