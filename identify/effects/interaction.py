@@ -123,7 +123,8 @@ class Interaction(Effect):
         drive = setting.get("drive", "voltage")
         scale = _scale(ctx, drive)
         return Interaction({"k": float(setting.get("start", 0.0)) * scale, "drive": drive,
-                            "source": setting.get("source", "output"), **_reference(ctx, setting)})
+                            "source": setting.get("source", "output"),
+                            **_reference(ctx, setting.get("source", "output"), setting.get("reference", "mid"))})
 
     def transform(self, run: Run, x: np.ndarray, feedback: np.ndarray | None = None) -> np.ndarray:
         if not self.k:
@@ -140,7 +141,8 @@ class Interaction(Effect):
         # the input further up changes nothing (it saturates), one that pulls it down unswitches cells; a
         # derivative taken upwards only left every k < 0 out of the family
         sign = self._direction(setting)
-        reference = self.reference_um if self.fitted else _reference(ctx, setting).get("reference_um", 0.0)
+        reference = self.reference_um if self.fitted else _reference(ctx, source, setting.get("reference", "mid")).get(
+            "reference_um", 0.0)
         unit = STEP * _scale(ctx, drive)
         dk = sign * unit
         values = []
@@ -158,8 +160,7 @@ class Interaction(Effect):
         source = self.source if self.fitted else setting.get("source", "output")
         return Interaction({"k": float(self.k + self._direction(setting) * coef[0]), "drive": drive,
                             "source": source,
-                            **_reference(ctx, {"source": source, "reference": self.params.get("reference", "mid")}
-                                         if self.fitted else setting)})
+                            **_reference(ctx, source, (self.params if self.fitted else setting).get("reference", "mid"))})
 
     def _direction(self, setting: dict[str, float]) -> float:
         """The direction of ``k`` a column is taken in: the setting's sign unfitted (the diagnosis), else up
@@ -174,11 +175,10 @@ def shifted(x: np.ndarray, amount: np.ndarray, drive: str) -> np.ndarray:
     return x + amount
 
 
-def _reference(ctx: Context, setting: dict[str, Any]) -> dict[str, Any]:
-    """The parameters of the setting's ``reference`` at ``ctx``'s model: none for the middle, else its name and
-    the phase part there (um): ``-sum mu`` insulating, ``+sum mu`` metallic."""
-    reference = setting.get("reference", "mid")
-    if reference == "mid" or setting.get("source", "output") == "output":
+def _reference(ctx: Context, source: str, reference: str) -> dict[str, Any]:
+    """The parameters of ``reference`` at ``ctx``'s model: none for the middle (or the whole output), else its
+    name and the phase part there (um): ``-sum mu`` insulating, ``+sum mu`` metallic."""
+    if reference == "mid" or source == "output":
         return {}
     total = float(np.sum(ctx.model.density))
     return {"reference": reference, "reference_um": -total if reference == "insulating" else total}
