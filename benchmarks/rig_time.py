@@ -38,6 +38,7 @@ rig time within 1.2x the paper's check nRMSE), and the Pareto front
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import importlib
 import json
 import math
@@ -68,11 +69,11 @@ PAPER_DWELL_S = 20.0
 FIXED_DWELLS_S = (2.0, 5.0, 10.0, 60.0)
 BUDGET_FRACTIONS = (0.1, 0.2, 0.4)
 #: Seeds of the devices (fixed before any run; device k of a generator uses SEED0 + k).
-SEED0 = {"sim": 41000, "rt_a": 42000, "rt_b": 43000, "rt_c": 44000}
+SEED0 = {"sim": 41000, "rt_a": 42000, "rt_b": 43000, "rt_c": 44000, "rt_d": 45000}
 TAU_RANGE_S = (0.5, 20.0)
-#: Targets of the ``--target-nrmse`` runs, and the dwell of their points (s).
+#: Targets of the ``--target-nrmse`` runs, and the first dwell of their points (s; the run lengthens it).
 TARGETS = (0.003, 0.001)
-ADAPTIVE_DWELL_S = 30.0
+ADAPTIVE_START_DWELL_S = 1.0
 #: Points chosen per simulation of the adaptive run (see :func:`_adaptive_run`).
 BATCH = 20
 
@@ -185,10 +186,10 @@ def one_device(gen: str, k: int) -> dict:
                             "reversal_dwell_s": plan.chosen.reversal_dwell_s, "readings": plan.readings}
     for target in TARGETS:
         t0 = time.perf_counter()
-        run, rt, predicted, steps = _adaptive_run(device, target, k)
+        run, rt, predicted, steps, found = _adaptive_run(device, target, k)
         rows_before = len(rows)
         score(f"target {target:g}", run, rt, ("smooth_nn",))
-        rows[-1].update(target=target, predicted_nrmse=predicted, next_point_ms=steps,
+        rows[-1].update(target=target, predicted_nrmse=predicted, next_point_ms=steps, **found,
                         adaptive_s=time.perf_counter() - t0)
         assert len(rows) == rows_before + 1
     return {"generator": gen, "device": k, "tau_s": tau, "check_settle_s": settle, "rows": rows}
@@ -196,19 +197,26 @@ def one_device(gen: str, k: int) -> dict:
 
 def _adaptive_run(device, target: float, k: int):
     """``rig acquire --target-nrmse`` on ``device``: the design of :mod:`rig.acquisition.adaptive` (its prior
-    from the bench's reference device), every point waiting ``ADAPTIVE_DWELL_S``.  The simulators take a
-    whole schedule, so points are chosen in batches of ``BATCH``: within a batch each choice is made on a
-    copy of the design fed the posterior mean as the reading (the covariance, which alone decides the
-    choice, does not depend on the readings), then the prefix is simulated once and the real readings are
-    fed to the design in order, each followed by the stopping test, as the rig does."""
+    from the bench's reference device), its dwell starting at ``ADAPTIVE_START_DWELL_S`` and lengthened as
+    its settle replicates demand (:mod:`identify.settling`).  The simulators take a whole schedule, so
+    points are chosen in batches of ``BATCH``: within a batch each choice is made on a copy of the design
+    fed the posterior mean as the reading (the covariance, which alone decides the choice, does not depend
+    on the readings), then the prefix is simulated once and the real readings are fed to the design in
+    order, each followed by the stopping test, as the rig does; a batch ends early where the real readings
+    lengthen the dwell.  The points a longer dwell superseded are left out of the fit, as ``rig identify``
+    leaves them out of the session."""
     import copy
 
+    from identify.sequential import KIND_CODES
+    from identify.settling import superseded
     from rig.acquisition.adaptive import MOST_POINTS_PER_UNKNOWN, design_for
 
     # the simulated bench's noise per reading is NOISE_UM, as in default_config(); four readings a point
-    design = design_for(default_config(), GRID, (GRID.v_min, GRID.v_max), 4, k)
+    design = design_for(default_config(), GRID, (GRID.v_min, GRID.v_max), 4, k, dwell_s=ADAPTIVE_START_DWELL_S)
     most = MOST_POINTS_PER_UNKNOWN * (GRID.n_cells + 2)
     v: list[float] = []
+    waits: list[float] = []
+    kinds: list[str] = []
     steps = []
     predicted = math.inf
     done = False
@@ -219,23 +227,31 @@ def _adaptive_run(device, target: float, k: int):
             t0 = time.perf_counter()
             nxt = fantasy.next_input()
             steps.append(1000 * (time.perf_counter() - t0))
-            kind = fantasy.proposed
+            kind, wait = fantasy.proposed, fantasy.next_dwell()
             fantasy.add(nxt, float(fantasy.row_if(nxt) @ fantasy.mean), kind)
-            batch.append((nxt, kind))
+            batch.append((nxt, kind, wait))
         n = len(v) + len(batch)
-        sched = {"v_V": np.asarray(v + [b[0] for b in batch]), "dwell_s": np.full(n, ADAPTIVE_DWELL_S),
+        sched = {"v_V": np.asarray(v + [b[0] for b in batch]), "dwell_s": np.asarray(waits + [b[2] for b in batch]),
                  "readings": np.full(n, 4), "measured": np.ones(n, bool), "reading_s": READING_S}
         ys = np.asarray(device.simulate(sched, 3)["y_um"], float)[len(v):]
-        for (nxt, kind), y in zip(batch, ys):
-            design.add(nxt, float(y), kind)
+        for (nxt, kind, wait), y in zip(batch, ys):
+            before = design.dwell_s
+            design.add(nxt, float(y), kind, waited_s=wait)
             v.append(nxt)
+            waits.append(wait)
+            kinds.append(kind)
             predicted = design.predicted_nrmse()
             if design.reached(target):
                 done = True
                 break
+            if design.dwell_s != before:
+                break
         design._rng = fantasy._rng
-    run, rt = _run(device, np.asarray(v), np.full(len(v), ADAPTIVE_DWELL_S), 4, 3, "target")
-    return run, rt, predicted, float(np.median(steps))
+    run, rt = _run(device, np.asarray(v), np.asarray(waits), 4, 3, "target")
+    gone = superseded(np.asarray(waits), np.asarray([KIND_CODES[x] for x in kinds]))
+    run = dataclasses.replace(run, outputs=np.where(gone, np.nan, run.outputs))
+    return run, rt, predicted, float(np.median(steps)), {"final_dwell_s": design.dwell_s,
+                                                          "superseded": int(gone.sum()), "points": len(v)}
 
 
 def _summary(results: list[dict]) -> dict:

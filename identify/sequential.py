@@ -68,6 +68,7 @@ from .grid import Grid
 from .memory import CellStates, MemoryCurve
 from .methods.triangle_penalty import dense_roughness_matrix
 from .regressor import regressor_matrix
+from .settling import DWELL_STEP, REPLICATE_CODE, SETTLE_CHECKS, SETTLE_FACTOR, superseded, unsettled
 
 #: Every this many points, the next one repeats the last set-point (a replicate).
 REPLICATE_EVERY = 25
@@ -93,6 +94,8 @@ HELD_OUT_METHOD = "smooth_nn"
 #: that a run stops on by chance: on the development devices, 5 check points let runs stop at 40 points
 #: with a predicted 0.0008 against a measured 0.011).
 MIN_HELD_OUT = 15
+#: Codes of each point's kind, as a session records them (``point_kind``).
+KIND_CODES = {"design": 0, "check": 1, "replicate": REPLICATE_CODE}
 #: Prior standard deviation of the bias (um) and of the thermal term (um/V): nearly free.
 FREE_SD = 1e3
 #: Points of each random check run the predicted error is taken over, and how many runs.
@@ -106,20 +109,38 @@ class SequentialDesign:
     ``scale_um``: prior sd of a cell weight (um); ``smooth_um``: prior sd of a
     difference of neighbouring cell weights (um); ``window``: the set-points
     allowed (V); ``thermal_term``: equation (22) with ``c_d v``.
+    ``dwell_s`` (s): the first points' wait, lengthened as settle replicates
+    demand (:mod:`identify.settling`) up to ``max_dwell_s``; None: the run's
+    dwell is not the design's business (a fixed wait or a settle condition;
+    replicates then only estimate the noise).
     """
 
     def __init__(self, grid: Grid, *, noise_um: float, scale_um: float, smooth_um: float,
-                 window: tuple[float, float] | None = None, thermal_term: bool = True, seed: int = 0) -> None:
+                 window: tuple[float, float] | None = None, thermal_term: bool = True, seed: int = 0,
+                 dwell_s: float | None = None, max_dwell_s: float = 600.0) -> None:
         if not (noise_um > 0 and scale_um > 0 and smooth_um > 0):
             raise IdentifyError("noise, prior scale and smoothness must be positive")
+        if dwell_s is not None and not (0 < dwell_s <= max_dwell_s and math.isfinite(max_dwell_s)):
+            raise IdentifyError(f"the dwell must be positive and at most {max_dwell_s:g} s, got {dwell_s}")
         self.grid, self.thermal_term, self.noise_um = grid, thermal_term, float(noise_um)
         nc = grid.n_cells
         p = nc + 1 + int(thermal_term)
         lam = np.zeros((p, p))
         lam[:nc, :nc] = dense_roughness_matrix(grid) / smooth_um**2 + np.eye(nc) / scale_um**2
         lam[nc:, nc:] = np.eye(p - nc) / FREE_SD**2
-        self.cov = np.linalg.inv(lam)
+        self._prior_cov = np.linalg.inv(lam)
+        self.cov = self._prior_cov.copy()
         self.mean = np.zeros(p)
+        #: The run's dwell now (s), or None when the design does not set it.
+        self.dwell_s = None if dwell_s is None else float(dwell_s)
+        self.max_dwell_s = float(max_dwell_s)
+        #: Each point's wait (s), as :meth:`add` was told (NaN: not told).
+        self.waits: list[float] = []
+        #: Settle-replicate differences (um) seen at the current dwell.
+        self.settle_differences: list[float] = []
+        #: How often the dwell was lengthened.
+        self.lengthened = 0
+        self._rows_seen: list[np.ndarray] = []
         lo, hi = (grid.v_min, grid.v_max) if window is None else window
         walls = np.asarray(grid.walls, dtype=float)
         # the walls and the midpoints between them (off-wall points identify the thermal term)
@@ -131,6 +152,7 @@ class SequentialDesign:
                                 for j in range(CHECK_RUNS)])
         #: The predicted variance of each check row (um^2), kept up to date by rank-one steps.
         self.check_var = np.einsum("ij,jk,ik->i", self.check, self.cov, self.check)
+        self._prior_check_var = self.check_var.copy()
         self.states = CellStates(grid, MemoryCurve(grid.levels))
         self.inputs: list[float] = []
         self.outputs: list[float] = []
@@ -168,11 +190,32 @@ class SequentialDesign:
             return max(self.noise_um, float(np.sqrt(np.mean(np.square(self.pairs)) / 2.0)))
         return self.noise_um
 
+    @property
+    def kept(self) -> np.ndarray:
+        """Which points so far ``(n,)`` bool are measured and not superseded by a longer dwell."""
+        y = np.asarray(self.outputs, dtype=float)
+        out = np.isfinite(y)
+        if self.dwell_s is not None and y.size:
+            codes = np.asarray([KIND_CODES[k] for k in self._kinds])
+            out &= ~superseded(np.asarray(self.waits), codes, self.dwell_s)
+        return out
+
+    def _wants_replicate(self, n: int) -> bool:
+        if not n or self._kinds[-1] == "replicate":
+            return False
+        if n % REPLICATE_EVERY == 0:
+            return True
+        # a dwell not yet trusted: every design point is followed by a settle replicate
+        return self.dwell_s is not None and len(self.settle_differences) < SETTLE_CHECKS \
+            and self._kinds[-1] == "design" and math.isfinite(self.outputs[-1])
+
     def next_input(self) -> float:
-        """The set-point (V) to apply next: a replicate every :data:`REPLICATE_EVERY` points, else the
+        """The set-point (V) to apply next: a replicate every :data:`REPLICATE_EVERY` points (and, while the
+        design sets the dwell, after each design point until :data:`~identify.settling.SETTLE_CHECKS`
+        settle replicates stand at the current dwell), a check point every :data:`CHECK_EVERY`, else the
         I-optimal wall."""
         n = len(self.inputs)
-        if n and n % REPLICATE_EVERY == 0:
+        if self._wants_replicate(n):
             self.proposed = "replicate"
             return self.inputs[-1]
         if n % CHECK_EVERY == CHECK_EVERY - 1:
@@ -189,42 +232,89 @@ class SequentialDesign:
                 best, gain = float(v), g
         return best
 
-    def add(self, v: float, y: float, kind: str | None = None) -> None:
-        """Point ``v`` (V) was applied and read ``y`` (um): move the memory, update the posterior.  ``kind``:
-        what :meth:`next_input` proposed it as (default: its last proposal when ``v`` is that proposal)."""
+    def next_dwell(self) -> float | None:
+        """The wait (s) the point :meth:`next_input` last proposed asks for: a settle replicate
+        :data:`~identify.settling.SETTLE_FACTOR` times the dwell, any other point the dwell; None when the
+        design does not set the dwell."""
+        if self.dwell_s is None:
+            return None
+        return self.dwell_s * (SETTLE_FACTOR if self.proposed == "replicate" else 1.0)
+
+    def add(self, v: float, y: float, kind: str | None = None, waited_s: float | None = None) -> None:
+        """Point ``v`` (V) was applied and read ``y`` (um) after waiting ``waited_s`` (s; default: what
+        :meth:`next_dwell` asked): move the memory, update the posterior.  ``kind``: what
+        :meth:`next_input` proposed it as (default: its last proposal).  A settle replicate that shows the
+        points were not at rest lengthens the dwell and drops the points it supersedes."""
         kind = kind or self.proposed
+        if waited_s is None:
+            waited_s = self.next_dwell() if kind == self.proposed else None
         self.proposed = "design"
-        if kind == "replicate" and self.inputs and v == self.inputs[-1] and math.isfinite(y):
-            self.pairs.append(y - self.outputs[-1])
+        replicate = kind == "replicate" and self.inputs and v == self.inputs[-1] and math.isfinite(y) \
+            and math.isfinite(self.outputs[-1])
+        difference = y - self.outputs[-1] if replicate else math.nan
         areas = self.states.apply(self._coordinate(v))
         r = self._row(areas.copy(), v)
         self.inputs.append(float(v))
         self.outputs.append(float(y))
         self._kinds.append(kind)
+        self.waits.append(math.nan if waited_s is None else float(waited_s))
+        self._rows_seen.append(r)
+        if replicate and self.dwell_s is not None and self.kept[-2]:
+            self.settle_differences.append(difference)
+            if unsettled(np.asarray(self.settle_differences), self.noise_um) and self.dwell_s < self.max_dwell_s:
+                self._lengthen()
+                return
+        if replicate:
+            self.pairs.append(difference)
         if not math.isfinite(y):
             return
+        self._update(len(self.inputs) - 1, refit=True)
+
+    def _update(self, i: int, refit: bool) -> None:
+        """The rank-one step of point ``i``."""
+        r, y, kind = self._rows_seen[i], self.outputs[i], self._kinds[i]
         s2 = self.sigma**2
         pr = self.cov @ r
         denom = s2 + float(r @ pr)
         if kind == "check":
             self.errors.append(((y - float(r @ self.mean)) ** 2, denom))
-        if len(self.inputs) % REFIT_EVERY == 0 and len(self.errors) >= MIN_HELD_OUT:
-            self.held_out = self._held_out()
+        if refit and len(self.inputs) % REFIT_EVERY == 0 and len(self.errors) >= MIN_HELD_OUT:
+            self._refit()
         self.mean = self.mean + pr * (y - float(r @ self.mean)) / denom
         self.cov = self.cov - np.outer(pr, pr) / denom
         self.check_var = self.check_var - (self.check @ pr) ** 2 / denom
 
+    def _lengthen(self) -> None:
+        """The dwell was too short: lengthen it, and rebuild the posterior from the prior over the points
+        the longer dwell keeps (in their order, as they came)."""
+        self.dwell_s = min(self.dwell_s * DWELL_STEP, self.max_dwell_s)
+        self.lengthened += 1
+        self.settle_differences = []
+        self.pairs = []  # their differences held the transient, not only noise
+        self.cov, self.check_var = self._prior_cov.copy(), self._prior_check_var.copy()
+        self.mean = np.zeros_like(self.mean)
+        self.errors, self.held_out = [], None
+        for i in np.flatnonzero(self.kept):
+            self._update(int(i), refit=False)
+        if len(self.errors) >= MIN_HELD_OUT:
+            self._refit()
+
+    def _refit(self) -> None:
+        self.held_out = self._held_out()
+
     def _held_out(self) -> float | None:
         """:data:`HELD_OUT_METHOD` fitted without the check points, its nRMSE on them; None if it cannot fit."""
         v, y = np.asarray(self.inputs), np.asarray(self.outputs)
-        checks = (np.asarray(self._kinds) == "check") & np.isfinite(y)
+        kept = self.kept
+        y = np.where(kept, y, np.nan)
+        checks = (np.asarray(self._kinds) == "check") & kept
         train = np.where(checks, np.nan, y)
         try:
             model = fit_sequence(self.grid, v, train, HELD_OUT_METHOD, thermal_term=self.thermal_term).model
         except IdentifyError:
             return None
         err = model.predict(v)[checks] - y[checks]
-        span = float(np.ptp(y[np.isfinite(y)]))
+        span = float(np.ptp(y[kept]))
         bound = math.sqrt(_upper_mean(err * err))  # the upper bound of the RMS
         return bound / span if span > 0 else None
 
@@ -232,7 +322,7 @@ class SequentialDesign:
         """The check nRMSE expected of the model now (see the module docstring); inf before two points."""
         if self.held_out is not None:
             return self.held_out
-        y = np.asarray([o for o in self.outputs if math.isfinite(o)])
+        y = np.asarray(self.outputs)[self.kept]
         if y.size < 2 or np.ptp(y) <= 0:
             return math.inf
         var = float(np.mean(self.check_var))
@@ -247,9 +337,13 @@ class SequentialDesign:
         return _upper_mean(np.minimum(e[:, 0] / e[:, 1], RATIO_CAP))
 
     def reached(self, target: float) -> bool:
-        """Whether a run to ``target`` (check nRMSE) may end now: :data:`MIN_POINTS` points and
-        :data:`MIN_CHECKS` check points behind a prediction at or below it."""
-        return len(self.inputs) >= MIN_POINTS and len(self.errors) >= MIN_CHECKS \
+        """Whether a run to ``target`` (check nRMSE) may end now: :data:`MIN_POINTS` points kept,
+        :data:`MIN_CHECKS` check points and the settle replicates the dwell needs behind a prediction at or
+        below it."""
+        if self.dwell_s is not None and len(self.settle_differences) < SETTLE_CHECKS \
+                and self.dwell_s < self.max_dwell_s:
+            return False
+        return int(self.kept.sum()) >= MIN_POINTS and len(self.errors) >= MIN_CHECKS \
             and self.predicted_nrmse() <= target
 
     def floor_nrmse(self, span_um: float) -> float:

@@ -26,7 +26,7 @@ from collections.abc import Callable
 import numpy as np
 
 from identify import Grid
-from identify.sequential import SequentialDesign
+from identify.sequential import KIND_CODES, SequentialDesign
 from sessions import ADAPTIVE_KIND, ExcitationRecord
 
 from .errors import AcquisitionError
@@ -36,20 +36,22 @@ from .timed import reading_costs, reference_device
 ADAPTIVE_METHOD = "smooth_nn"
 #: Most points without ``--points``: this many times the model's unknowns.
 MOST_POINTS_PER_UNKNOWN = 2
+#: The longest dwell a run to a target lengthens its own to (s).
+MAX_DWELL_S = 600.0
 #: How often (points) the predicted error is reported.
 REPORT_EVERY = 10
-#: Codes of ``point_kind`` in the session.
-KIND_CODES = {"design": 0, "check": 1, "replicate": 2}
 
 
 def design_for(cfg, grid: Grid, window: tuple[float, float], readings: int, seed: int,
-               thermal_term: bool = True) -> SequentialDesign:
-    """The sequential design of a run on ``cfg``'s rig (see the module docstring)."""
+               thermal_term: bool = True, dwell_s: float | None = None) -> SequentialDesign:
+    """The sequential design of a run on ``cfg``'s rig (see the module docstring); ``dwell_s`` (s): its
+    first dwell, lengthened as its settle replicates demand (None: a wait the design does not set)."""
     noise_um, _ = reading_costs(cfg)
     ref = reference_device(cfg, grid)
     cell = float(np.sqrt(np.mean(np.square(ref.density))))
     return SequentialDesign(grid, noise_um=noise_um / math.sqrt(readings), scale_um=cell, smooth_um=cell,
-                            window=window, thermal_term=thermal_term, seed=seed)
+                            window=window, thermal_term=thermal_term, seed=seed, dwell_s=dwell_s,
+                            max_dwell_s=MAX_DWELL_S)
 
 
 def check_target(target: float, design: SequentialDesign, span_um: float) -> None:
