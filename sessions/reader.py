@@ -112,8 +112,23 @@ class Session:
 
     @property
     def outputs(self) -> np.ndarray:
-        """Outputs ``(n,)``, NaN where the point was applied but not measured."""
-        return np.where(self.measured, self.samples["output"], np.nan)
+        """Outputs ``(n,)``, NaN where the point was applied but not measured -- or, in a run to a target that
+        found its own dwell, measured at a dwell a longer one superseded (:attr:`superseded`)."""
+        return np.where(self.measured & ~self.superseded, self.samples["output"], np.nan)
+
+    @property
+    def superseded(self) -> np.ndarray:
+        """Which points ``(n,)`` bool were measured before the run found they were not at rest: in a run to
+        a target that finds its own dwell (``first_dwell_s`` in the excitation's ``extra``), those whose
+        wait is shorter than the run's final dwell (:func:`identify.settling.superseded`); they set the
+        memory state but are no quasi-static reading.  None elsewhere."""
+        n = self.n_samples
+        if "first_dwell_s" not in self.excitation.extra or self.extra is None \
+                or "point_kind" not in (self.extra.dtype.names or ()):
+            return np.zeros(n, bool)
+        from identify.settling import superseded
+
+        return superseded(self.samples["dwell_s"], self.extra["point_kind"][:n])
 
     @property
     def measured_rows(self) -> np.ndarray:

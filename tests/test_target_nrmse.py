@@ -118,3 +118,30 @@ def test_a_rig_time_cap_ends_the_run_before_the_target(tmp_path):
 ])
 def test_target_bad_input_exits_2_and_writes_nothing(tmp_path, args, message):
     refused_before_writing(virtual_sim_config(tmp_path, 5, 0.5), tmp_path, args, message)
+
+
+def test_a_run_to_a_target_finds_its_dwell_on_a_slow_beam(tmp_path):
+    """Time constant 3 s, no --dwell: the run starts at 1 s, lengthens its dwell as its settle replicates
+    demand, says so, and the session hands rig identify only the points measured at the final dwell."""
+    from identify.settling import SUPERSEDED_SHARE
+
+    cfg, out = virtual_sim_config(tmp_path, 5, 3.0), tmp_path / "slow.h5"
+    r = rig_here("acquire", "--config", cfg, "--target-nrmse", 0.02, "--readings", 1, "--out", out, "--json")
+    assert r.code == 0, r.err
+    assert "waiting 1 s at first" in r.err and "the dwell is now 2 s" in r.err
+    s = read_session(out)
+    kinds = s.extra["point_kind"]
+    final = float(s.samples["dwell_s"][kinds != 2].max())
+    assert final >= 4.0  # 1 s is a third of the time constant: not at rest
+    gone = s.superseded
+    assert gone.any() and not gone[-1]
+    assert np.array_equal(gone, s.samples["dwell_s"] < SUPERSEDED_SHARE * final)
+    assert np.isnan(s.outputs[gone]).all() and np.isfinite(s.outputs[~gone]).all()
+    assert s.excitation.extra["first_dwell_s"] == 1.0
+    summary = r.json()
+    assert summary["final_dwell_s"] == final and summary["superseded_points"] == int(gone.sum())
+
+
+def test_a_first_dwell_above_the_longest_is_refused(tmp_path):
+    refused_before_writing(virtual_sim_config(tmp_path, 5, 0.5), tmp_path, ["--target-nrmse", "0.01", "--dwell",
+                                                                            "601"], "at most 600 s")

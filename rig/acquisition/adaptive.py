@@ -14,8 +14,14 @@ non-negative density, as the design's prior assumes).
 The design's prior and noise come from the bench (:mod:`.timed`: the
 reference device and the noise of one reading): the prior sd of a cell is
 the reference's rms cell weight, and of a difference of neighbours the
-same.  The prediction assumes points at rest (quasi-static): give a dwell
-long enough, or ``--settle``.
+same.  The prediction assumes points at rest (quasi-static), so the run
+finds its own dwell (:mod:`identify.settling`): it starts at ``--dwell``
+(:data:`FIRST_DWELL_S` when not given) and doubles it, up to
+:data:`MAX_DWELL_S`, whenever settle replicates -- the previous set-point
+held four times as long -- show the points were not at rest; the points
+the longer dwell supersedes stay in the session (they set the memory) but
+no fit uses them.  With ``--settle`` the settle condition decides each
+wait instead, and the dwell is not changed.
 """
 
 from __future__ import annotations
@@ -36,6 +42,8 @@ from .timed import reading_costs, reference_device
 ADAPTIVE_METHOD = "smooth_nn"
 #: Most points without ``--points``: this many times the model's unknowns.
 MOST_POINTS_PER_UNKNOWN = 2
+#: The first dwell of a run to a target without ``--dwell`` (s): short, since the run lengthens it itself.
+FIRST_DWELL_S = 1.0
 #: The longest dwell a run to a target lengthens its own to (s).
 MAX_DWELL_S = 600.0
 #: How often (points) the predicted error is reported.
@@ -66,18 +74,22 @@ def check_target(target: float, design: SequentialDesign, span_um: float) -> Non
 
 
 def adaptive_record(grid: Grid, most: int, thermal_term: bool, seed: int, target: float,
-                    cap_s: float | None) -> ExcitationRecord:
+                    cap_s: float | None, first_dwell_s: float | None = None) -> ExcitationRecord:
     """The excitation of a run to a target: ``most`` placeholder points (the lowest wall) of kind
-    ``adaptive``, every one measured, with the target and the cap kept in ``extra``."""
+    ``adaptive``, every one measured, with the target and the cap kept in ``extra`` -- and, when the run
+    finds its own dwell, ``first_dwell_s`` and ``max_dwell_s`` (s), which tell a reader of the session to
+    leave out the points a longer dwell superseded (:func:`identify.settling.superseded`)."""
+    extra = {"target_nrmse": target, "rig_time_cap_s": cap_s}
+    if first_dwell_s is not None:
+        extra.update(first_dwell_s=float(first_dwell_s), max_dwell_s=MAX_DWELL_S)
     return ExcitationRecord(kind=ADAPTIVE_KIND, inputs=np.full(most, grid.v_min), levels=grid.levels,
-                            v_min=grid.v_min, v_max=grid.v_max, thermal_term=thermal_term, seed=seed,
-                            extra={"target_nrmse": target, "rig_time_cap_s": cap_s})
+                            v_min=grid.v_min, v_max=grid.v_max, thermal_term=thermal_term, seed=seed, extra=extra)
 
 
 class AdaptiveSetpoints:
     """The set-point source of a run to ``target`` (check nRMSE) within ``cap_s`` seconds (None: none);
-    ``dwell_s`` (s) is each point's planned wait, ``report(k, predicted, t_s)`` is told the prediction
-    every :data:`REPORT_EVERY` points."""
+    ``dwell_s`` (s) is each point's planned wait when the design does not set it (a settle condition),
+    ``report(k, predicted, t_s)`` is told the prediction every :data:`REPORT_EVERY` points."""
 
     def __init__(self, design: SequentialDesign, target: float, cap_s: float | None, dwell_s: float,
                  report: Callable[[int, float, float], None] | None = None) -> None:
@@ -86,12 +98,14 @@ class AdaptiveSetpoints:
         self.predicted = math.inf
         self.reason = "most points"
         self._kind = "design"
+        self._wait: float | None = None
 
     def finished(self, k: int, t_s: float) -> bool:
         if self.design.reached(self.target):
             self.reason = "target reached"
             return True
-        if self.cap_s is not None and t_s + self.dwell_s > self.cap_s:
+        wait = self.dwell_s if self.design.dwell_s is None else self.design.dwell_s
+        if self.cap_s is not None and t_s + wait > self.cap_s:
             self.reason = "rig-time cap"
             return True
         return False
@@ -99,13 +113,21 @@ class AdaptiveSetpoints:
     def setpoint(self, k: int, t_s: float, dwell_s: float) -> float:
         v = self.design.next_input()
         self._kind = self.design.proposed
+        self._wait = self.design.next_dwell()
         return v
 
+    def dwell_for(self, k: int) -> float | None:
+        return self._wait
+
     def measured(self, k: int, v: float, t_s: float, dwell_s: float, deflection_um: float) -> dict[str, float]:
-        kind = self._kind
-        self.design.add(v, deflection_um, kind)
+        kind, before = self._kind, self.design.dwell_s
+        self.design.add(v, deflection_um, kind, waited_s=dwell_s)
         self.predicted = self.design.predicted_nrmse()
         if self.report is not None and (k + 1) % REPORT_EVERY == 0:
             self.report(k + 1, self.predicted, t_s)
+        if before is not None and self.design.dwell_s != before and self.lengthened is not None:
+            self.lengthened(k + 1, before, self.design.dwell_s)
         return {"predicted_nrmse": self.predicted, "point_kind": KIND_CODES[kind]}
 
+    #: Told ``(k, old_s, new_s)`` when the run lengthens its dwell (None: not told).
+    lengthened: Callable[[int, float, float], None] | None = None

@@ -55,7 +55,7 @@ from drivers.protocols import Clock, DeflectionSensor, HeaterOutput
 from drivers.setpoint_rules import same_setpoint
 from sessions import SampleFlag
 
-from .dwell import DwellOutcome, DwellPolicy, DwellSettings, average_reading
+from .dwell import DwellOutcome, DwellPolicy, DwellSettings, FixedDwell, average_reading
 from .interrupt import Aborted, Decision, PauseInfo, PauseSwitch
 from .plan import AcquisitionPlan
 from .setpoint_source import SetpointSource
@@ -165,13 +165,15 @@ class Sequencer:
                 return DwellOutcome(self.clock.now() - t_set, out.settled, out.timed_out)
             self._pause(k, phase)
 
-    def _apply(self, k: int, volts: float, settle: bool, phase: str) -> DwellOutcome:
+    def _apply(self, k: int, volts: float, settle: bool, phase: str, policy: DwellPolicy | None = None) -> DwellOutcome:
+        """Set ``volts`` for point ``k`` and wait by ``policy`` (default: the settings' for the point)."""
         self._checkpoint(k, "before point" if phase == "run" else phase)
         self.heater.set_voltage(volts)
         self._setpoint = self.sensor.setpoint_V = volts
         self._read_back(k, volts, phase)
         s = self.settings
-        policy = (s.dwell if phase == "saturation" else s.at(k)) if settle else s.transit
+        if policy is None:
+            policy = (s.dwell if phase == "saturation" else s.at(k)) if settle else s.transit
         return self._wait(policy, k, "dwell" if phase == "run" else phase)
 
     def _read_back(self, k: int, volts: float, phase: str) -> None:
@@ -237,6 +239,7 @@ class Sequencer:
         extra = int(first_flags)
         source = self.setpoints
         for k in range(start, n):
+            override = None
             if source is None:
                 v = float(inputs[k])
             elif source.finished(k, self.clock.now() - t0):
@@ -246,7 +249,9 @@ class Sequencer:
                 self._checkpoint(k, "before point")
                 policy = self.settings.at(k) if settle[k] else self.settings.transit
                 v = float(source.setpoint(k, self.clock.now() - t0, getattr(policy, "seconds", math.nan)))
-            out = self._apply(k, v, bool(settle[k]), "run")
+                asked = source.dwell_for(k)
+                override = None if asked is None or not settle[k] else FixedDwell(float(asked))
+            out = self._apply(k, v, bool(settle[k]), "run", override)
             retried = False
             if measure[k]:
                 deflection, psd, retried = average_reading(self.sensor, readings)

@@ -22,6 +22,10 @@ class SetpointSource(Protocol):
         """The set-point (V) of point ``k``, applied now: ``t_s`` (s) since the start of the run, readings
         after ``dwell_s`` (s).  It must lie in the heater's window."""
 
+    def dwell_for(self, k: int) -> float | None:
+        """The wait (s) point ``k`` asks for, asked right after :meth:`setpoint`; None: the run's own dwell
+        (a run to a target lengthens its dwell as it finds the points were not at rest)."""
+
     def measured(self, k: int, v: float, t_s: float, dwell_s: float, deflection_um: float) -> dict[str, float]:
         """Point ``k`` was applied at ``v`` (V), read at ``t_s`` (s) after ``dwell_s`` (s) as ``deflection_um``
         (um; NaN when not measured).  Returns the extra columns to record with it (by name)."""

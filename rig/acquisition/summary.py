@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from identify.acquisition_plan import reversal_points
+from identify.settling import REPLICATE_CODE
 from sessions import ADAPTIVE_KIND, SampleFlag, Session
 
 from .runner import RunOutcome
@@ -86,12 +87,19 @@ def summarise(session: Session, outcome: RunOutcome) -> dict[str, Any]:
 
 def _adaptive(session: Session) -> dict[str, Any]:
     """A run to a target error (``rig acquire --target-nrmse``): its target, the last predicted check nRMSE
-    and whether it reached the target; nothing for other runs."""
+    and whether it reached the target; for a run that found its own dwell, its first and final dwell (s)
+    and how many points the longer dwell superseded; nothing for other runs."""
     exc = session.excitation
     if exc.kind != ADAPTIVE_KIND:
         return {}
     rows = session.extra
     predicted = float(rows["predicted_nrmse"][-1]) if rows is not None and rows.size else float("inf")
     target = float(exc.extra.get("target_nrmse", float("nan")))
-    return {"target_nrmse": target, "predicted_nrmse": predicted, "target_reached": bool(predicted <= target),
-            "rig_time_cap_s": exc.extra.get("rig_time_cap_s")}
+    out = {"target_nrmse": target, "predicted_nrmse": predicted, "target_reached": bool(predicted <= target),
+           "rig_time_cap_s": exc.extra.get("rig_time_cap_s")}
+    if "first_dwell_s" in exc.extra and rows is not None and rows.size:
+        own = rows["point_kind"] != REPLICATE_CODE  # the dwell the run found: its other points' longest wait
+        out.update(first_dwell_s=exc.extra["first_dwell_s"],
+                   final_dwell_s=float(session.samples["dwell_s"][own].max()) if own.any() else None,
+                   superseded_points=int(session.superseded.sum()))
+    return out

@@ -31,8 +31,8 @@ from rig.acquisition import (
     summarise,
 )
 from rig.acquisition.recipe import default_recipe, given_recipe
-from rig.acquisition.adaptive import (ADAPTIVE_METHOD, MOST_POINTS_PER_UNKNOWN, AdaptiveSetpoints, adaptive_record,
-                                     check_target, design_for)
+from rig.acquisition.adaptive import (ADAPTIVE_METHOD, FIRST_DWELL_S, MAX_DWELL_S, MOST_POINTS_PER_UNKNOWN,
+                                     AdaptiveSetpoints, adaptive_record, check_target, design_for)
 from rig.acquisition.timed import CONTRADICTING, check_options, describe, reference_device, timed_plan
 from rig.acquisition.runner import resumable
 from rig.acquisition.sequence import DEFAULT_LEVELS, DEFAULT_RANDOM_POINTS, default_grid
@@ -63,6 +63,8 @@ class TimedRequest:
     budget_s: float | None
     readings: int | None = None
     target_nrmse: float | None = None
+    #: With ``target_nrmse``: ``--dwell`` when given, the run's first dwell (s; None: its own first dwell).
+    first_dwell_s: float | None = None
 
 
 def _settings(dwell: float, settle: float | None, poll: float, transit: float, readings: int,
@@ -162,7 +164,9 @@ def describe_recipe(r: dict) -> str:
 @click.option("--target-nrmse", type=float, metavar="X",
               help="Choose each next set-point from what was measured (I-optimal for the density) and stop when "
                    "the model's predicted check nRMSE reaches X (with --rig-time S: or at S seconds; --points: "
-                   "the most points [2 x the unknowns]); every point waits --dwell (or --settle).")
+                   "the most points [2 x the unknowns]); the run finds its own dwell: it starts at --dwell [1 s] and "
+                   "doubles it whenever a repeated point shows the beam had not settled (--settle: the settle "
+                   "condition decides each wait instead).")
 @click.option("--identify-with", metavar="METHOD[:EFFECT,...]",
               help="Record in the session that it is to be identified with this method (and these effects, "
                    "as rig identify --with); rig identify uses it unless told otherwise "
@@ -213,7 +217,8 @@ def acquire(ctx, config_path, sequence, levels, v_min, v_max, thermal_term, poin
         if sequence != "damped" or given:
             raise AcquisitionError("--target-nrmse chooses the set-points and the recipe itself; "
                                    f"{', '.join(given) or '--sequence ' + sequence} contradicts it")
-        timed = TimedRequest(rig_time, None, target_nrmse)
+        timed = TimedRequest(rig_time, None, target_nrmse, dwell if ctx.get_parameter_source("dwell")
+                             is not ParameterSource.DEFAULT else None)
     elif rig_time is not None:
         check_options(sequence, _given(ctx, CONTRADICTING))
         timed = TimedRequest(rig_time, readings if ctx.get_parameter_source("readings")
@@ -294,8 +299,13 @@ def _to_target(cfg, out: Path, timed: TimedRequest, *, window, rules, levels, v_
     """``rig acquire --target-nrmse X``: a run whose set-points are chosen as it goes
     (:mod:`rig.acquisition.adaptive`), recorded like any run, ended when the target is predicted."""
     grid = default_grid(window, levels, v_min, v_max)
+    first = None if settle is not None else (FIRST_DWELL_S if timed.first_dwell_s is None else timed.first_dwell_s)
+    if first is not None and not (0 < first <= MAX_DWELL_S):
+        raise AcquisitionError(f"--dwell {first:g}: a run to a target starts from a dwell above 0 and at most "
+                               f"{MAX_DWELL_S:g} s (it lengthens the dwell itself)")
+    dwell = dwell if first is None else first
     design = design_for(cfg, grid, (max(window.min_V, grid.v_min), min(window.max_V, grid.v_max)), readings, seed,
-                        thermal_term)
+                        thermal_term, dwell_s=first)
     ref = reference_device(cfg, grid)
     span = float(np.ptp(design.check @ ref.parameters(thermal_term)))
     check_target(timed.target_nrmse, design, span)
@@ -306,22 +316,32 @@ def _to_target(cfg, out: Path, timed: TimedRequest, *, window, rules, levels, v_
     if most < MIN_POINTS:
         raise AcquisitionError(f"--points {most}: a run to a target needs at least {MIN_POINTS} points")
     settings = _settings(dwell, settle, poll, 0.0, readings)
-    record = make_record(adaptive_record(grid, most, thermal_term, seed, timed.target_nrmse, timed.budget_s),
-                         settings, None, seed)
+    record = make_record(adaptive_record(grid, most, thermal_term, seed, timed.target_nrmse, timed.budget_s,
+                                         first), settings, None, seed)
     recipe = IdentifyRecipe(method=ADAPTIVE_METHOD, levels=grid.levels, v_min=grid.v_min, v_max=grid.v_max,
                             effects=(), thermal_term=thermal_term,
                             reason=f"rig acquire --target-nrmse {timed.target_nrmse:g}: the prediction is about "
                                    f"{ADAPTIVE_METHOD}'s smooth, non-negative density")
     cap = "" if timed.budget_s is None else f", at most {format_duration(timed.budget_s)} of rig time"
+    waits = (f"of {dwell:g} s (or settled sooner)" if first is None else
+             f"waiting {first:g} s at first, twice as long whenever settle replicates show the points were not "
+             f"at rest (at most {MAX_DWELL_S:g} s)")
     click.echo(f"run to a target: check nRMSE {timed.target_nrmse:g} predicted from the model's uncertainty "
-               f"(checked on random check points and replicates); at most {most} points of {dwell:g} s"
-               f"{' (or settled sooner)' if settle is not None else ''}{cap}", err=True)
+               f"(checked on random check points and replicates); at most {most} points {waits}{cap}", err=True)
 
     def say(k: int, predicted: float, t_s: float) -> None:
         click.echo(f"point {k}: predicted check nRMSE {predicted:.3g} (target {timed.target_nrmse:g}), "
                    f"rig time {format_duration(t_s)}", err=True)
 
     source = AdaptiveSetpoints(design, timed.target_nrmse, timed.budget_s, dwell, report=say)
+
+    def longer(k: int, old: float, new: float) -> None:
+        gone = int((~design.kept & np.isfinite(design.outputs)).sum())
+        click.echo(f"point {k}: not at rest after {old:g} s (settle replicates); the dwell is now {new:g} s; "
+                   f"{gone} point{'' if gone == 1 else 's'} measured at shorter dwells stay in the session, "
+                   "not fitted", err=True)
+
+    source.lengthened = longer
 
     def run(rig, hooks):
         return run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes, hooks=hooks,

@@ -46,6 +46,9 @@ class TrackingSetpoints:
         self._pending = (k, command, step.v, step.reachable)
         return step.v
 
+    def dwell_for(self, k: int) -> float | None:
+        return None  # a tracking run waits the run's own dwell
+
     def measured(self, k: int, v: float, t_s: float, dwell_s: float, deflection_um: float) -> dict[str, float]:
         if self._pending is None or self._pending[0] != k or self._pending[2] != v:
             raise RuntimeError(f"point {k} was applied at {v!r} V, not at the set-point computed for it")
