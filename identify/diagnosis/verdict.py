@@ -80,6 +80,9 @@ MOST = 0.75
 #: A second effect must take away at least this share of what the first leaves of the excess; see
 #: :meth:`Evidence.decide`.
 SECOND_SHARE = 0.5
+#: ... and at least this share of the whole excess: a name must account for a visible part of the gap,
+#: not for the first effect's form mismatch in the last few percent of it.
+SECOND_MIN = 0.05
 
 #: At most this many rivals are named by an ``ambiguous`` verdict (best first).
 MAX_RIVALS = 3
@@ -296,7 +299,8 @@ class Evidence:
             takes = gain2 / left_by_first if left_by_first > 0 else 0.0
             needed = share is not None and share < MOST
             alone = z[j] >= Z_SIGNIFICANT and gain[j] > 0  # a second effect stands on its own too
-            if alone and takes >= SECOND_SHARE and (joint_share >= MOST or not needed):
+            material = gain2 / excess >= SECOND_MIN
+            if alone and takes >= SECOND_SHARE and material and (joint_share >= MOST or not needed):
                 steps = ({"effect": names[best], "shrink": float(shrink[best]), "share_closed": share,
                           "z": float(z[best])},
                          {"effect": names[j], "shrink": float(1.0 - np.sqrt(mse_pair / self.mse[best])),
