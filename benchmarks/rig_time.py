@@ -13,8 +13,12 @@ fixed below) come from four simulators:
   looked at while the planner's constants were set; ``rt_b`` was meant as
   the headline but was looked at while the planner was still changing;
 * ``rt_c``: a third, written blind the same way after the planner was
-  frozen (2026-11-28): **the headline**, its seeds fixed below before its
-  first run, run once with the planner as it stood.
+  frozen (2026-11-28): the headline then, its seeds fixed below before its
+  first run, run once with the planner as it stood;
+* ``rt_d``: a fourth (2026-11-29), the headline of the runs to a target
+  that find their own dwell, run once;
+* ``rt_e``: a fifth (2026-11-29), kept unseen for the next change's
+  headline.
 
 For every device: the identification run of each protocol and one
 quasi-static check run (200 random set-points, each held until the
@@ -69,7 +73,7 @@ PAPER_DWELL_S = 20.0
 FIXED_DWELLS_S = (2.0, 5.0, 10.0, 60.0)
 BUDGET_FRACTIONS = (0.1, 0.2, 0.4)
 #: Seeds of the devices (fixed before any run; device k of a generator uses SEED0 + k).
-SEED0 = {"sim": 41000, "rt_a": 42000, "rt_b": 43000, "rt_c": 44000, "rt_d": 45000}
+SEED0 = {"sim": 41000, "rt_a": 42000, "rt_b": 43000, "rt_c": 44000, "rt_d": 45000, "rt_e": 46000}
 TAU_RANGE_S = (0.5, 20.0)
 #: Targets of the ``--target-nrmse`` runs, and the first dwell of their points (s; the run lengthens it).
 TARGETS = (0.003, 0.001)
