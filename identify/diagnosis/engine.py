@@ -669,6 +669,7 @@ def _evidence(assessed: list[_Assessed], reference: _Reference, floor: _Floor, b
         pair_with=pair_with,
         pairs_after=pairs_after,
         within=tuple(getattr(a.cand, "within", None) for a in assessed),
+        refinements=tuple(a.cand.name for a in assessed if isinstance(a.cand, Resolution)),
         floor_kind=floor.kind,
         floor_estimate=floor.estimate,
     )

@@ -81,7 +81,8 @@ MOST = 0.75
 #: :meth:`Evidence.decide`.
 SECOND_SHARE = 0.5
 #: ... and at least this share of the whole excess: a name must account for a visible part of the gap,
-#: not for the first effect's form mismatch in the last few percent of it.
+#: not for the first effect's form mismatch in the last few percent of it (beside a refinement of the base
+#: model, a finer grid, which has no form to mismatch, this does not apply: :attr:`Evidence.refinements`).
 SECOND_MIN = 0.05
 
 #: At most this many rivals are named by an ``ambiguous`` verdict (best first).
@@ -139,6 +140,9 @@ class Evidence:
     pairs_after: np.ndarray | None = None
     #: For each candidate, the name of the more general effect it is a special case of (or None).
     within: tuple = ()
+    #: Candidates that refine the base model instead of adding an effect (a finer grid): beside one of
+    #: them a second effect's share is taken of what it leaves, not of the whole excess (:data:`SECOND_MIN`).
+    refinements: tuple[str, ...] = ()
     #: How ``floor`` is known (:data:`FLOOR_KINDS`): measured, or an upper bound (None: as measured).
     floor_kind: str | None = None
     #: With a bound for ``floor``: the point estimate of the floor ``(m,)`` the share of the excess is taken
@@ -299,7 +303,9 @@ class Evidence:
             takes = gain2 / left_by_first if left_by_first > 0 else 0.0
             needed = share is not None and share < MOST
             alone = z[j] >= Z_SIGNIFICANT and gain[j] > 0  # a second effect stands on its own too
-            material = gain2 / excess >= SECOND_MIN
+            # a grid that closes 99.9 % of a coarse model's excess leaves a real second effect a small share of
+            # it: the share is then taken of what the refinement leaves (SECOND_SHARE already asks half of it)
+            material = names[best] in self.refinements or gain2 / excess >= SECOND_MIN
             if alone and takes >= SECOND_SHARE and material and (joint_share >= MOST or not needed):
                 steps = ({"effect": names[best], "shrink": float(shrink[best]), "share_closed": share,
                           "z": float(z[best])},
