@@ -279,7 +279,7 @@ class SequentialDesign:
         if kind == "check":
             self.errors.append(((y - float(r @ self.mean)) ** 2, denom))
         if refit and len(self.inputs) % REFIT_EVERY == 0 and len(self.errors) >= MIN_HELD_OUT:
-            self._refit()
+            self.held_out = self._held_out()
         self.mean = self.mean + pr * (y - float(r @ self.mean)) / denom
         self.cov = self.cov - np.outer(pr, pr) / denom
         self.check_var = self.check_var - (self.check @ pr) ** 2 / denom
@@ -297,10 +297,7 @@ class SequentialDesign:
         for i in np.flatnonzero(self.kept):
             self._update(int(i), refit=False)
         if len(self.errors) >= MIN_HELD_OUT:
-            self._refit()
-
-    def _refit(self) -> None:
-        self.held_out = self._held_out()
+            self.held_out = self._held_out()
 
     def _held_out(self) -> float | None:
         """:data:`HELD_OUT_METHOD` fitted without the check points, its nRMSE on them; None if it cannot fit."""

@@ -89,12 +89,14 @@ def adaptive_record(grid: Grid, most: int, thermal_term: bool, seed: int, target
 class AdaptiveSetpoints:
     """The set-point source of a run to ``target`` (check nRMSE) within ``cap_s`` seconds (None: none);
     ``dwell_s`` (s) is each point's planned wait when the design does not set it (a settle condition),
-    ``report(k, predicted, t_s)`` is told the prediction every :data:`REPORT_EVERY` points."""
+    ``report(k, predicted, t_s)`` is told the prediction every :data:`REPORT_EVERY` points and
+    ``lengthened(k, old_s, new_s)`` each time the run lengthens its dwell."""
 
     def __init__(self, design: SequentialDesign, target: float, cap_s: float | None, dwell_s: float,
-                 report: Callable[[int, float, float], None] | None = None) -> None:
+                 report: Callable[[int, float, float], None] | None = None,
+                 lengthened: Callable[[int, float, float], None] | None = None) -> None:
         self.design, self.target, self.cap_s, self.dwell_s = design, float(target), cap_s, float(dwell_s)
-        self.report = report
+        self.report, self.lengthened = report, lengthened
         self.predicted = math.inf
         self.reason = "most points"
         self._kind = "design"
@@ -128,6 +130,3 @@ class AdaptiveSetpoints:
         if before is not None and self.design.dwell_s != before and self.lengthened is not None:
             self.lengthened(k + 1, before, self.design.dwell_s)
         return {"predicted_nrmse": self.predicted, "point_kind": KIND_CODES[kind]}
-
-    #: Told ``(k, old_s, new_s)`` when the run lengthens its dwell (None: not told).
-    lengthened: Callable[[int, float, float], None] | None = None

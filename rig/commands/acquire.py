@@ -333,15 +333,13 @@ def _to_target(cfg, out: Path, timed: TimedRequest, *, window, rules, levels, v_
         click.echo(f"point {k}: predicted check nRMSE {predicted:.3g} (target {timed.target_nrmse:g}), "
                    f"rig time {format_duration(t_s)}", err=True)
 
-    source = AdaptiveSetpoints(design, timed.target_nrmse, timed.budget_s, dwell, report=say)
-
     def longer(k: int, old: float, new: float) -> None:
         gone = int((~design.kept & np.isfinite(design.outputs)).sum())
         click.echo(f"point {k}: not at rest after {old:g} s (settle replicates); the dwell is now {new:g} s; "
                    f"{gone} point{'' if gone == 1 else 's'} measured at shorter dwells stay in the session, "
                    "not fitted", err=True)
 
-    source.lengthened = longer
+    source = AdaptiveSetpoints(design, timed.target_nrmse, timed.budget_s, dwell, report=say, lengthened=longer)
 
     def run(rig, hooks):
         return run_acquisition(rig, record, out, settings=settings, operator=operator, notes=notes, hooks=hooks,
