@@ -71,12 +71,19 @@ def superseded(waits_s: np.ndarray, kinds: np.ndarray, dwell_s: float | None = N
     :data:`SUPERSEDED_SHARE` of the dwell is superseded; replicates are judged like any point (one whose
     wait reaches the dwell is kept)."""
     w = np.asarray(waits_s, dtype=float)
+    if dwell_s is None:
+        dwell_s = final_dwell(w, kinds)
+        if dwell_s is None:
+            return np.zeros(w.shape, bool)
+    return np.isfinite(w) & (w < SUPERSEDED_SHARE * dwell_s)
+
+
+def final_dwell(waits_s: np.ndarray, kinds: np.ndarray) -> float | None:
+    """The run's final dwell (s): the longest recorded wait ``(n,)`` of a point whose ``point_kind``
+    ``(n,)`` is not a replicate (replicates wait longer); None before such a point."""
+    w = np.asarray(waits_s, dtype=float)
     k = np.asarray(kinds)
     if w.shape != k.shape:
         raise ValueError(f"waits {w.shape} and kinds {k.shape} differ in shape")
-    if dwell_s is None:
-        own = np.isfinite(w) & (k != REPLICATE_CODE)
-        if not own.any():
-            return np.zeros(w.shape, bool)
-        dwell_s = float(w[own].max())
-    return np.isfinite(w) & (w < SUPERSEDED_SHARE * dwell_s)
+    own = np.isfinite(w) & (k != REPLICATE_CODE)
+    return float(w[own].max()) if own.any() else None

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from identify.acquisition_plan import reversal_points
-from identify.settling import REPLICATE_CODE
+from identify.settling import final_dwell
 from sessions import ADAPTIVE_KIND, SampleFlag, Session
 
 from .runner import RunOutcome
@@ -98,8 +98,7 @@ def _adaptive(session: Session) -> dict[str, Any]:
     out = {"target_nrmse": target, "predicted_nrmse": predicted, "target_reached": bool(predicted <= target),
            "rig_time_cap_s": exc.extra.get("rig_time_cap_s")}
     if "first_dwell_s" in exc.extra and rows is not None and rows.size:
-        own = rows["point_kind"] != REPLICATE_CODE  # the dwell the run found: its other points' longest wait
         out.update(first_dwell_s=exc.extra["first_dwell_s"],
-                   final_dwell_s=float(session.samples["dwell_s"][own].max()) if own.any() else None,
+                   final_dwell_s=final_dwell(session.samples["dwell_s"], rows["point_kind"][:session.n_samples]),
                    superseded_points=int(session.superseded.sum()))
     return out
