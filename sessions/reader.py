@@ -120,15 +120,35 @@ class Session:
     def superseded(self) -> np.ndarray:
         """Which points ``(n,)`` bool were measured before the run found they were not at rest: in a run to
         a target that finds its own dwell (``first_dwell_s`` in the excitation's ``extra``), those whose
-        wait is shorter than the run's final dwell (:func:`identify.settling.superseded`); they set the
-        memory state but are no quasi-static reading.  None elsewhere."""
-        n = self.n_samples
-        if "first_dwell_s" not in self.excitation.extra or self.extra is None \
-                or "point_kind" not in (self.extra.dtype.names or ()):
-            return np.zeros(n, bool)
+        asked wait (``asked_dwell_s``; a pause lengthens the recorded ``dwell_s``, not this) is shorter than
+        the run's final dwell (:func:`identify.settling.superseded`); they set the memory state but are no
+        quasi-static reading.  None elsewhere."""
+        found = self._found_dwell()
+        if found is None:
+            return np.zeros(self.n_samples, bool)
         from identify.settling import superseded
 
-        return superseded(self.samples["dwell_s"], self.extra["point_kind"][:n])
+        return superseded(*found)
+
+    @property
+    def final_dwell_s(self) -> float | None:
+        """The dwell (s) a run to a target that finds its own dwell ended at; None for other sessions."""
+        found = self._found_dwell()
+        if found is None:
+            return None
+        from identify.settling import final_dwell
+
+        return final_dwell(*found)
+
+    def _found_dwell(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(waits, kinds)`` ``(n,)`` of a run to a target that finds its own dwell: the wait asked of each
+        point (s; older sessions: the recorded ``dwell_s``) and its ``point_kind``; None for other sessions."""
+        n = self.n_samples
+        names = () if self.extra is None else (self.extra.dtype.names or ())
+        if "first_dwell_s" not in self.excitation.extra or "point_kind" not in names:
+            return None
+        waits = self.extra["asked_dwell_s"][:n] if "asked_dwell_s" in names else self.samples["dwell_s"]
+        return waits, self.extra["point_kind"][:n]
 
     @property
     def measured_rows(self) -> np.ndarray:

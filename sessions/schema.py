@@ -73,8 +73,10 @@ SAMPLE_FILL = np.array((-1, np.nan, np.nan, np.nan, np.nan, np.nan, False, False
 #: reachable from the memory state.  Readers that do not know them ignore them.
 TRACKING_COLUMNS = np.dtype([("target", "<f8"), ("command", "<f8"), ("predicted", "<f8"), ("reachable", "?")])
 #: Extra sample columns of a run to a target error (``rig acquire --target-nrmse``): the predicted check
-#: nRMSE after the point, and what the point was (0: chosen by design, 1: a random check point, 2: a replicate).
-ADAPTIVE_COLUMNS = np.dtype([("predicted_nrmse", "<f8"), ("point_kind", "<i4")])
+#: nRMSE after the point, what the point was (0: chosen by design, 1: a random check point, 2: a replicate),
+#: and the wait the run asked of it (s; NaN when the run does not set its dwell) -- a pause lengthens the
+#: recorded ``dwell_s``, never this.
+ADAPTIVE_COLUMNS = np.dtype([("predicted_nrmse", "<f8"), ("point_kind", "<i4"), ("asked_dwell_s", "<f8")])
 #: Excitation kind of a run that decides its own length: its planned inputs are placeholders, its plan
 #: its most points, and it is complete with fewer.
 ADAPTIVE_KIND = "adaptive"

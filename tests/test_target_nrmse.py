@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -140,6 +141,12 @@ def test_a_run_to_a_target_finds_its_dwell_on_a_slow_beam(tmp_path):
     assert s.excitation.extra["first_dwell_s"] == 1.0
     summary = r.json()
     assert summary["final_dwell_s"] == final and summary["superseded_points"] == int(gone.sum())
+    assert np.array_equal(s.extra["asked_dwell_s"][kinds != 2], s.samples["dwell_s"][kinds != 2])  # no pause
+    # a pause lengthens a point's recorded wait, not the wait the run asked: the same points stay superseded
+    paused = s.samples.copy()
+    paused["dwell_s"][int(np.flatnonzero(kinds == 0)[1])] = 100 * final
+    s_paused = dataclasses.replace(s, samples=paused)
+    assert np.array_equal(s_paused.superseded, gone) and s_paused.final_dwell_s == final
 
 
 def test_a_first_dwell_above_the_longest_is_refused(tmp_path):

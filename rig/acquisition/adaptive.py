@@ -122,11 +122,13 @@ class AdaptiveSetpoints:
         return self._wait
 
     def measured(self, k: int, v: float, t_s: float, dwell_s: float, deflection_um: float) -> dict[str, float]:
-        kind, before = self._kind, self.design.dwell_s
-        self.design.add(v, deflection_um, kind, waited_s=dwell_s)
+        kind, before, asked = self._kind, self.design.dwell_s, self._wait
+        # judged by the wait asked, not the one recorded (a pause lengthens that): as a reader of the session is
+        self.design.add(v, deflection_um, kind, waited_s=dwell_s if asked is None else asked)
         self.predicted = self.design.predicted_nrmse()
         if self.report is not None and (k + 1) % REPORT_EVERY == 0:
             self.report(k + 1, self.predicted, t_s)
         if before is not None and self.design.dwell_s != before and self.lengthened is not None:
             self.lengthened(k + 1, before, self.design.dwell_s)
-        return {"predicted_nrmse": self.predicted, "point_kind": KIND_CODES[kind]}
+        return {"predicted_nrmse": self.predicted, "point_kind": KIND_CODES[kind],
+                "asked_dwell_s": math.nan if asked is None else asked}

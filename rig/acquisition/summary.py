@@ -20,7 +20,6 @@ from typing import Any
 import numpy as np
 
 from identify.acquisition_plan import reversal_points
-from identify.settling import final_dwell
 from sessions import ADAPTIVE_KIND, SampleFlag, Session
 
 from .runner import RunOutcome
@@ -99,6 +98,6 @@ def _adaptive(session: Session) -> dict[str, Any]:
            "rig_time_cap_s": exc.extra.get("rig_time_cap_s")}
     if "first_dwell_s" in exc.extra and rows is not None and rows.size:
         out.update(first_dwell_s=exc.extra["first_dwell_s"],
-                   final_dwell_s=final_dwell(session.samples["dwell_s"], rows["point_kind"][:session.n_samples]),
+                   final_dwell_s=session.final_dwell_s,
                    superseded_points=int(session.superseded.sum()))
     return out
