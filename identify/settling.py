@@ -19,9 +19,10 @@ its dwell as it goes:
   (:func:`superseded`): they still moved the memory, but their readings
   are not quasi-static and no fit uses them.
 
-Everything here is a function of the recorded columns (each point's wait
-and kind), so ``rig identify`` reaches the same points from the session as
-the run did.
+Everything here is a function of recorded columns (the wait the run asked
+of each point, ``asked_dwell_s``, and its kind), so ``rig identify`` reaches
+the same points from the session as the run did; a pause lengthens a point's
+recorded ``dwell_s``, not its asked wait.
 """
 
 from __future__ import annotations
@@ -39,8 +40,8 @@ SETTLE_QUANTILE = 0.999
 #: Each lengthening multiplies the dwell by this.
 DWELL_STEP = 2.0
 #: A measured point whose wait is shorter than this share of the run's final dwell is superseded (the
-#: dwell only grows, by :data:`DWELL_STEP`, so any share between 1/DWELL_STEP and 1 gives the same points
-#: while tolerating the milliseconds a set-point write adds to a recorded wait).
+#: dwell only grows, by :data:`DWELL_STEP`, so any share between 1/DWELL_STEP and 1 gives the same points;
+#: below 1 it also tolerates the milliseconds a set-point write adds where a recorded wait stands in).
 SUPERSEDED_SHARE = 0.9
 #: The ``point_kind`` code of a replicate (as :mod:`rig.acquisition.adaptive` records it).
 REPLICATE_CODE = 2
@@ -63,8 +64,9 @@ def unsettled(differences_um: np.ndarray, sigma_um: float) -> bool:
 
 
 def superseded(waits_s: np.ndarray, kinds: np.ndarray, dwell_s: float | None = None) -> np.ndarray:
-    """Which points ``(n,)`` bool a longer dwell superseded: ``waits_s`` (s, ``(n,)``) each point's recorded
-    wait, ``kinds`` ``(n,)`` its ``point_kind`` code.  ``dwell_s`` (s): the run's dwell; None: the longest
+    """Which points ``(n,)`` bool a longer dwell superseded: ``waits_s`` (s, ``(n,)``) each point's wait (the
+    one the run asked; a session without that column: the recorded one), ``kinds`` ``(n,)`` its
+    ``point_kind`` code.  ``dwell_s`` (s): the run's dwell; None: the longest
     wait of a point that is not a replicate (replicates wait longer), which is the run's final dwell once
     a point has waited it -- a run that ends between a lengthening and its next point keeps, read from the
     session, the points the run had just dropped.  A point that waited less than
