@@ -70,7 +70,8 @@ TRUTHS = {
     "reversible": {"walls": GRID.walls.tolist(),
                    "increments_um": (0.2 * np.sin(np.arange(GRID.levels + 2))).tolist()},
     "interaction": {"k": 0.02, "drive": "voltage"},
-    "first_point": {"coefficients_um": [0.01, 0.02, -0.005, 0.03, -0.01, 0.004, 0.02, 0.006, -0.015], "decay": 0.6,
+    "first_point": {"coefficients_um": [0.01, 0.02, -0.005, 0.03, -0.01, 0.004, 0.02, 0.006, -0.015, 0.012],
+                    "decay": 0.6,
                     "cell": GRID.step},
 }
 
@@ -504,12 +505,31 @@ def test_a_first_point_offset_belongs_to_a_reading_not_to_a_point_applied_withou
     y[4] = np.nan                      # the first point after the reversal at 3 V is applied, not read
     run = run_of(y, v=v, dwell=np.full(v.size, 10.0), t=10.0 * np.arange(1, v.size + 1))
     terms = indicators(run, decay=0.6, cell=0.5)
-    after = terms[:, 3:]
+    after = terms[:, 3:9]
     assert not np.any(after[4:6])      # no terms at the unread turn, nor persisting from it
     assert np.all(after[6] != 0)       # the turn at 0.5 V is read at 1.0 V: its first point carries them
     sat = 1.0 - np.exp(-1.0)  # a step of 0.5 V up, on a cell of 0.5 V: 1, d, s, d sat, |s|, sat
     np.testing.assert_allclose(after[6], [1.0, 1.0, 0.5, sat, 0.5, sat])
     np.testing.assert_allclose(after[7], 0.6 * after[6])
+
+
+def test_the_first_rise_of_a_run_is_a_turn_with_its_own_offset():
+    """Every run starts from the heater at 0 V, where the film cooled into saturation: the first set-point that
+    rises from there is the first point after a turn, and carries the start offset (persisting like the others),
+    not the size terms of a turn inside the run (its step is the whole jump from 0 V)."""
+    from identify.effects.first_point import LABELS, indicators
+
+    start = LABELS.index("start_offset_um")
+    v = np.array([0.0, 0.0, 2.0, 3.0, 1.5, 2.5, 2.0, 1.0])
+    run = run_of(np.arange(v.size, dtype=float), v=v, dwell=np.full(v.size, 10.0), t=10.0 * np.arange(1, v.size + 1))
+    np.testing.assert_allclose(indicators(run, decay=0.0)[:, start], [0, 0, 1, 0, 0, 0, 0, 0])
+    np.testing.assert_allclose(indicators(run, decay=0.5)[:, start], [0, 0, 1, 0.5, 0.25, 0.125, 0.0625, 0])
+    # the turns inside the run keep their own terms: at 1.5 V (after 3 V) and 2.0 V (after 2.5 V), none at 2 V
+    assert not np.any(indicators(run, decay=0.0)[2, 3:9])
+    # a run whose first move falls from its start turns nothing there (it continues the fall)
+    down = run_of(np.arange(4, dtype=float), v=np.array([-1.0, -2.0, -1.0, -3.0]), dwell=np.full(4, 10.0),
+                  t=10.0 * np.arange(1, 5))
+    assert not np.any(indicators(down, decay=0.5)[:, start])
 
 
 def _forc_like(reversals, step, name, seed):
@@ -571,3 +591,4 @@ def test_a_drift_spline_never_has_more_spans_than_a_quarter_of_the_points():
     # a run dense in time keeps its spans about every knot_s
     dense = run_of(np.zeros(V.size))
     assert np.unique(time_knots(dense, 600.0)).size - 1 == int(np.ptp(T) // 600.0) + 1
+

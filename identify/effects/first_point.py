@@ -19,6 +19,14 @@ offset (um) that may depend on the direction and on the size of a step:
 Whether the reversal point itself has an offset is a setting too (``at``):
 a run whose reversal readings carry none should not pay for three terms.
 
+The start of a run is a turn too: the sequencer starts every run from the
+heater at 0 V, where the film has cooled into saturation, so the first
+set-point that rises from ``initial_V`` is the first point after the input
+turned from falling to rising.  Its step (the whole jump from 0 V) is far
+larger than any turn inside the run, so it has its own offset ``c0``
+(persisting like the others), not a share of the size terms: one large
+step would otherwise set the slope every other turn is predicted with.
+
 Derived from the input history alone (:class:`identify.runs.History`), not
 from time, so any run with reversals carries it; a run whose input never
 turns back cannot identify it.
@@ -36,7 +44,8 @@ from ..runs import Run
 from .base import OUTPUT, Columns, Context, Effect, finite, finite_array, needs_reversals, single_columns
 
 LABELS = ("at_offset_um", "at_direction_um", "at_um_per_V", "after_offset_um", "after_direction_um",
-          "after_um_per_V", "after_saturating_um", "after_size_um_per_V", "after_saturating_size_um")
+          "after_um_per_V", "after_saturating_um", "after_size_um_per_V", "after_saturating_size_um",
+          "start_offset_um")
 #: Decay ratios of the after-reversal offset over the following points (a setting).
 DECAYS = (0.0, 0.3, 0.6, 0.85)
 #: Points after the first over which a persisting offset is followed.
@@ -44,8 +53,8 @@ PERSIST = 4
 
 
 def indicators(run: Run, decay: float = 0.0, cell: float = 1.0) -> np.ndarray:
-    """``(n, 9)``: the terms above at every point (zero away from reversals), in :data:`LABELS`' order;
-    ``cell`` the saturation's scale."""
+    """``(n, 10)``: the terms above at every point (zero away from reversals and the run's first rise), in
+    :data:`LABELS`' order; ``cell`` the saturation's scale."""
     h = run.history
     out = np.zeros((run.n, len(LABELS)))
     e = h.excursion_V
@@ -59,10 +68,15 @@ def indicators(run: Run, decay: float = 0.0, cell: float = 1.0) -> np.ndarray:
     d = np.sign(step)
     sat = 1.0 - np.exp(-np.abs(step) / cell)
     after = np.stack([np.ones_like(step), d, step, d * sat, np.abs(step), sat], axis=1)
+    moved = np.flatnonzero(run.inputs != run.initial_V)
+    first = moved[:1] if moved.size and run.inputs[moved[0]] > run.initial_V and \
+        np.isfinite(run.outputs[moved[0]]) else moved[:0]
     for j in range(PERSIST + 1 if decay else 1):
         idx = turn + j
         ok = idx < run.n
         np.add.at(out, (idx[ok][:, None], 3 + np.arange(after.shape[1])[None, :]), (decay ** j) * after[ok])
+        start = first + j
+        out[start[start < run.n], 9] += decay ** j
     return out
 
 
@@ -100,7 +114,7 @@ class FirstPoint(Effect):
         decay = finite(params, "decay", self.name) if "decay" in params else 0.0
         cell = finite(params, "cell", self.name) if "cell" in params else 1.0
         coef = finite_array(params, "coefficients_um", self.name)
-        if coef.size in (6, 7):  # written before the saturating term, or before the unsigned sizes
+        if coef.size in (6, 7, 9):  # written before the saturating term, the unsigned sizes, or the start
             coef = np.append(coef, np.zeros(len(LABELS) - coef.size))
         if coef.size != len(LABELS) or cell <= 0:
             raise IdentifyError(f"effect {self.name!r}: needs {len(LABELS)} coefficients_um and cell > 0")
