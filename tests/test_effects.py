@@ -592,3 +592,25 @@ def test_a_drift_spline_never_has_more_spans_than_a_quarter_of_the_points():
     dense = run_of(np.zeros(V.size))
     assert np.unique(time_knots(dense, 600.0)).size - 1 == int(np.ptp(T) // 600.0) + 1
 
+
+@pytest.mark.parametrize("drive", ["power", "voltage"])
+def test_a_small_lag_is_predicted_by_its_columns(drive):
+    """The lag's columns at no lag are its derivative there: a lag just above the noise (a fraction of 0.003
+    in one mode) changes the output by what they predict.  A secant to a twenty-times larger lag (the step
+    used until 2026-11-29) crosses cells of the memory curve such a lag never reaches, and is off by more."""
+    from identify.effects.joint import context_of
+    from identify.effects.thermal_lag import TIME_CONSTANTS_S, lagged
+
+    # from 0.5 V: a power-driven lag at 0 V (a beam still warm) grows as the square root of its fraction,
+    # which no linearisation follows
+    v = 0.5 + 0.875 * V
+    run = run_of(TRUE.predict(v), v=v)
+    lag = make_effect("thermal_lag")
+    ctx = context_of(TRUE, [run], (lag,))
+    cols = lag.columns(ctx, {"drive": drive}).values[0]
+    fractions = np.zeros(len(TIME_CONSTANTS_S))
+    fractions[7] = 0.003  # the mode at 62 s, beside dwells of 5-60 s
+    x = lagged(run, np.asarray(TIME_CONSTANTS_S), fractions, drive=drive)
+    exact = ctx.response(0, x, x) - ctx.response(0, run.inputs, run.inputs)
+    error = np.linalg.norm(cols @ fractions - exact) / np.linalg.norm(exact)
+    assert error < 0.03, error

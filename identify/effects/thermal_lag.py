@@ -59,8 +59,13 @@ TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(0.5, 1800.0, 12))
 DRIVES = ("power", "voltage", "both")
 #: Largest plausible lagging fraction of a mode (a whole rise arriving late).
 MAX_FRACTION = 1.0
-#: Step of the secant in a fraction.
-STEP = 0.05
+#: Step of the secant in a fraction: the columns are the derivative at the current fractions, not a secant
+#: to a large lag.  Until 2026-11-29 it was 0.05; a lag just above the noise is a fraction of 0.002-0.003,
+#: and a secant 20 times larger crosses cells of the memory curve that such a lag never reaches, so the
+#: diagnosis's linearised lag closed 0.4-0.7 of a gap that the same family, fitted by ``rig identify
+#: --with``, closes entirely (docs/results/2026-11-29-lag-derivative-and-first-rise.md).  A large lag is
+#: still reached: the joint fit iterates, and the diagnosis linearises again at its fit.
+STEP = 0.001
 #: Relative difference below which two dwells count as the same: a logger's overhead and timer jitter
 #: make a "20 s" dwell read 20.0-20.4 s from time stamps (``rig import --dwell-from-time``).
 SAME_DWELL = 0.05
