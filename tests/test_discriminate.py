@@ -183,7 +183,7 @@ def test_bad_limits_and_an_existing_plan_are_refused_before_any_work(creep_runs,
 def test_a_plan_is_written_for_rivals_the_check_run_leaves_open(creep_runs, tmp_path):
     fit, check = creep_runs
     plan = tmp_path / "plan.csv"
-    run = rig_here("diagnose", "--fit", fit, "--check", check, "--with", "thermal_lag,joule_power", "--json",
+    run = rig_here("diagnose", "--fit", fit, "--check", check, "--with", "baseline_drift,joule_power", "--json",
                    "--discriminate", plan, "--points", "60")
     assert run.code == 0, run.err
     out = run.json()
@@ -199,7 +199,7 @@ def test_a_plan_is_written_for_rivals_the_check_run_leaves_open(creep_runs, tmp_
     assert np.all((v >= grid.v_min - 1e-9) & (v <= grid.v_max + 1e-9))
     assert disc["predicted_separation"]["plan"] >= TARGET_SEPARATION
     assert disc["predicted_separation"]["check"] is not None
-    text = rig_here("diagnose", "--fit", fit, "--check", check, "--with", "thermal_lag,joule_power",
+    text = rig_here("diagnose", "--fit", fit, "--check", check, "--with", "baseline_drift,joule_power",
                     "--discriminate", plan, "--points", "60", "--force")
     assert text.code == 0 and f"discriminate: wrote {plan}" in text.out
 

@@ -66,6 +66,9 @@ MAX_FRACTION = 1.0
 #: --with``, closes entirely (docs/results/2026-11-29-lag-derivative-and-first-rise.md).  A large lag is
 #: still reached: the joint fit iterates, and the diagnosis linearises again at its fit.
 STEP = 0.001
+#: A mode whose whole fraction moves no run's hysteron input by this share of a cell is not fitted (see
+#: :meth:`ThermalLag._visible`).
+VISIBLE = 1e-3
 #: Relative difference below which two dwells count as the same: a logger's overhead and timer jitter
 #: make a "20 s" dwell read 20.0-20.4 s from time stamps (``rig import --dwell-from-time``).
 SAME_DWELL = 0.05
@@ -231,22 +234,35 @@ class ThermalLag(Effect):
         """The secant of the output in each mode's fraction (at the current fractions; the memory curve and
         the thermal term both see the lagged input)."""
         drive, taus, f0 = self._state(setting)
-        scale = ctx.grid.v_max - ctx.grid.v_min
+        heres = [lagged(run, taus, f0, drive=drive) for run in ctx.runs]
+        seen = self._visible(ctx, drive, taus, f0, heres)
         values = []
-        for i, run in enumerate(ctx.runs):
-            here = lagged(run, taus, f0, drive=drive)
+        for i, (run, here) in enumerate(zip(ctx.runs, heres)):
             base = ctx.response(i, here, here)
             cols = np.zeros((run.n, taus.size))
-            for j in range(taus.size):
+            for j in np.flatnonzero(seen):
                 f = f0.copy()
                 f[j] += STEP
                 moved = lagged(run, taus, f, drive=drive)
-                if np.max(np.abs(moved - here)) > 1e-12 * scale:
-                    cols[:, j] = (ctx.response(i, moved, moved) - base) / STEP
+                cols[:, j] = (ctx.response(i, moved, moved) - base) / STEP
             values.append(cols)
         labels = tuple(f"{d}_fraction_at_{t:.3g}s" if drive == "both" else f"fraction_at_{t:.3g}s"
                        for t, d in zip(taus, mode_drives(drive, taus.size)))
         return single_columns(ctx.runs, values, labels, (True,) * taus.size)
+
+    @staticmethod
+    def _visible(ctx: Context, drive: str, taus: np.ndarray, f0: np.ndarray, heres: list[np.ndarray]) -> np.ndarray:
+        """``(modes,)`` bool: whether the whole of a mode (its fraction at :data:`MAX_FRACTION`) moves the
+        hysterons' input of some run by :data:`VISIBLE` of a cell.  A mode much faster than every dwell has
+        settled at every reading: its column is zero but for rounding, and a fit would give it any fraction
+        (a rival for a plan with short dwells that the data never asked for)."""
+        seen = np.zeros(taus.size, dtype=bool)
+        for run, here in zip(ctx.runs, heres):
+            for j in np.flatnonzero(~seen):
+                f = f0.copy()
+                f[j] = MAX_FRACTION
+                seen[j] = np.max(np.abs(lagged(run, taus, f, drive=drive) - here)) > VISIBLE * ctx.grid.step
+        return seen
 
     def coefficients(self, ctx: Context) -> np.ndarray:
         return np.asarray(self.params["fractions"], dtype=float)
