@@ -614,3 +614,22 @@ def test_a_small_lag_is_predicted_by_its_columns(drive):
     exact = ctx.response(0, x, x) - ctx.response(0, run.inputs, run.inputs)
     error = np.linalg.norm(cols @ fractions - exact) / np.linalg.norm(exact)
     assert error < 0.03, error
+
+
+def test_a_lag_mode_no_run_can_see_is_not_fitted():
+    """A mode far faster than every dwell has settled at every reading: its column is zero, not a rounding
+    error a fit could give any fraction to; a mode a fit has put at its whole fraction stays visible."""
+    from identify.effects.joint import context_of
+    from identify.effects.thermal_lag import TIME_CONSTANTS_S, ThermalLag
+
+    v = 0.5 + 0.875 * V  # from 0.5 V (at 0 V a power-driven lag's input grows as the square root), dwells 5-60 s
+    run = run_of(TRUE.predict(v), v=v)
+    lag = make_effect("thermal_lag")
+    cols = lag.columns(context_of(TRUE, [run], (lag,)), {"drive": "power"}).values[0]
+    assert TIME_CONSTANTS_S[0] == 0.5 and not np.any(cols[:, 0])
+    assert np.any(cols[:, 7])  # 62 s
+    whole = np.zeros(len(TIME_CONSTANTS_S))
+    whole[7] = 1.0
+    fitted = ThermalLag({"drive": "power", "time_constants_s": list(TIME_CONSTANTS_S), "fractions": whole.tolist()})
+    at = fitted.columns(context_of(replace(TRUE, effects=(fitted,)), [run], (fitted,)), {}).values[0]
+    assert np.any(at[:, 7]) and not np.any(at[:, 0])

@@ -232,7 +232,7 @@ class ThermalLag(Effect):
 
     def columns(self, ctx: Context, setting: dict[str, float]) -> Columns:
         """The secant of the output in each mode's fraction (at the current fractions; the memory curve and
-        the thermal term both see the lagged input)."""
+        the thermal term both see the lagged input); zero for a mode no run can see (:meth:`_visible`)."""
         drive, taus, f0 = self._state(setting)
         heres = [lagged(run, taus, f0, drive=drive) for run in ctx.runs]
         seen = self._visible(ctx, drive, taus, f0, heres)
@@ -252,16 +252,18 @@ class ThermalLag(Effect):
 
     @staticmethod
     def _visible(ctx: Context, drive: str, taus: np.ndarray, f0: np.ndarray, heres: list[np.ndarray]) -> np.ndarray:
-        """``(modes,)`` bool: whether the whole of a mode (its fraction at :data:`MAX_FRACTION`) moves the
-        hysterons' input of some run by :data:`VISIBLE` of a cell.  A mode much faster than every dwell has
-        settled at every reading: its column is zero but for rounding, and a fit would give it any fraction
-        (a rival for a plan with short dwells that the data never asked for)."""
+        """``(modes,)`` bool: whether the whole of a mode (its fraction from 0 to :data:`MAX_FRACTION`, the
+        others as in ``f0``) moves the hysterons' input of some run by :data:`VISIBLE` of a cell; ``heres``
+        each run's lagged input at ``f0``.  A mode much faster than every dwell has settled at every
+        reading: its column is zero but for rounding, and a fit would give it any fraction (a rival for a
+        plan with short dwells that the data never asked for)."""
         seen = np.zeros(taus.size, dtype=bool)
         for run, here in zip(ctx.runs, heres):
             for j in np.flatnonzero(~seen):
-                f = f0.copy()
-                f[j] = MAX_FRACTION
-                seen[j] = np.max(np.abs(lagged(run, taus, f, drive=drive) - here)) > VISIBLE * ctx.grid.step
+                none, whole = f0.copy(), f0.copy()
+                none[j], whole[j] = 0.0, MAX_FRACTION
+                without = here if f0[j] == 0 else lagged(run, taus, none, drive=drive)
+                seen[j] = np.max(np.abs(lagged(run, taus, whole, drive=drive) - without)) > VISIBLE * ctx.grid.step
         return seen
 
     def coefficients(self, ctx: Context) -> np.ndarray:
