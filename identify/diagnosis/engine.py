@@ -655,9 +655,11 @@ def _bootstrap(assessed: list[_Assessed], reference: _Reference, blocks: Blocks,
 
 
 def _evidence(assessed: list[_Assessed], reference: _Reference, floor: _Floor, boot: np.ndarray,
-              where: list[Binning], pair_with: str | None, pairs_after: np.ndarray | None) -> Evidence:
+              where: list[Binning], pair_with: str | None, pairs_after: np.ndarray | None, blocks: Blocks
+              ) -> Evidence:
     """The held-out scores the verdict decides on: reference and candidates' residuals ``(m,)`` and
-    ``(c, m)`` (um), the floor, the bootstrap, whether any bin of ``where`` stands out, and the pairs."""
+    ``(c, m)`` (um), the floor, the bootstrap, whether any bin of ``where`` stands out, the pairs, and the
+    held-out block of every point."""
     return Evidence(
         names=tuple(a.cand.name for a in assessed),
         reference=reference.residual,
@@ -672,6 +674,7 @@ def _evidence(assessed: list[_Assessed], reference: _Reference, floor: _Floor, b
         refinements=tuple(a.cand.name for a in assessed if isinstance(a.cand, Resolution)),
         floor_kind=floor.kind,
         floor_estimate=floor.estimate,
+        blocks=blocks.index,
     )
 
 
@@ -792,7 +795,7 @@ def _diagnose(fit_runs: list[Run] | tuple[Run, ...], check_runs: list[Run] | tup
     boot = _bootstrap(assessed, reference, scored.blocks, settings)
     where = bin_residuals(scored.features, -reference.residual, floor.per_point if floor.kind == "measured" else None,
                           unit_names)
-    evidence = _evidence(assessed, reference, floor, boot, where, pair_with, pairs_after)
+    evidence = _evidence(assessed, reference, floor, boot, where, pair_with, pairs_after, scored.blocks)
     verdict = with_unassessed(evidence.decide(), not_assessed)
     scores = _candidate_scores(assessed, evidence, boot)
 
