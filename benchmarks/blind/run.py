@@ -23,7 +23,10 @@ mechanisms at once -- on a device drawn from the seed (``base.draw_device``):
    signal, one coefficient) is scored beside the library on the same
    sessions; if it cannot be told apart from the other rival either
    (paired ``z < 2``), the run cannot tell them apart, and the verdict is
-   *honest-ambiguous*.
+   *honest-ambiguous*; and for an outside mechanism given a library name,
+   the true signal is scored against each name (``oracle_z_named``): the
+   scoring is unchanged, the figure says whether the runs held the evidence
+   against the name, for a candidate of the mechanism's own form.
 
 Scoring, four columns (:func:`classify`): **right** (a library mechanism
 named alone; two named exactly; no gap on a clean device; an outside
@@ -52,7 +55,8 @@ import numpy as np
 from benchmarks.withheld.generate import Unreachable, digest, solve_strength, stream
 
 from .base import BaseDevice, draw_device
-from .scoring import ORACLE_Z, classify, four_columns, oracle_separation, print_four_columns, wants_oracle
+from .scoring import (ORACLE_Z, classify, four_columns, named_outside, oracle_separation, print_four_columns,
+                      wants_oracle)
 
 #: Generators this harness runs (sub-packages of ``benchmarks.blind``).
 GENERATORS = ("gen_b", "gen_c", "gen_d", "gen_e", "gen_f", "gen_g", "gen_h", "gen_i", "gen_j", "gen_k", "gen_l", "gen_m")
@@ -260,6 +264,11 @@ def judge(case: dict[str, Any], fit: Path, check: Path) -> dict[str, Any]:
             signals = [z[k] for k in sorted(z.files, key=lambda k: int(k.split("_")[1]))]
         row["oracle_z"] = oz = oracle_separation(fit, check, signals, rival)
         honest = oz < ORACLE_Z
+    named = named_outside(case["kind"], row["verdict"])
+    if named:  # did the runs hold the evidence against the name? (the true signal, scored against each name)
+        with np.load(fit.parent / "signals.npz") as z:
+            signals = [z[k] for k in sorted(z.files, key=lambda k: int(k.split("_")[1]))]
+        row["oracle_z_named"] = {n: oracle_separation(fit, check, signals, n) for n in named}
     row["outcome"] = classify(case["kind"], case["effects"], row["verdict"], honest)
     return row
 
@@ -297,6 +306,15 @@ def tables(rows: list[dict[str, Any]]) -> dict[str, Any]:
     return four_columns([(r["kind"], r["label"], r["outcome"]) for r in rows])
 
 
+def print_named_outside(rows: list[dict[str, Any]]) -> None:
+    """One line: how many outside cases got a library name, and in how many the mechanism's own signal beat
+    every name it was given (paired ``z >= ORACLE_Z``): the runs held the evidence, for the right form."""
+    named = [r for r in rows if r.get("oracle_z_named")]
+    if named:
+        beaten = sum(min(r["oracle_z_named"].values()) >= ORACLE_Z for r in named)
+        print(f"outside named: {len(named)}; the true signal beats every name given (z >= {ORACLE_Z:g}) in {beaten}")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.blind.run", description=__doc__.split("\n")[0])
     ap.add_argument("--generator", choices=GENERATORS)
@@ -320,6 +338,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {row['seed']} {row['label']:40s} {row['outcome']:8s} {v.get('status', row.get('reason', ''))!s:12s} "
                   f"{','.join(v.get('effects') or v.get('rivals') or [])}")
         print_four_columns(tables(rows))
+        print_named_outside(rows)
         if args.json:
             args.json.write_text(json.dumps({"rejudge": str(args.rejudge), "rows": rows}, indent=1, default=str))
         return 0
@@ -344,6 +363,7 @@ def main(argv: list[str] | None = None) -> int:
     t = tables(rows)
     print("", flush=True)
     print_four_columns(t)
+    print_named_outside(rows)
     forms = digest(sorted((r["seed"], c["family"], c.get("attempt"), c.get("form")) for r in rows
                           for c in r.get("calibrations", []) if c.get("form") is not None))
     print(f"\nforms digest {forms}; {time.perf_counter() - t0:.0f} s")

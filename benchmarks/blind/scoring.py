@@ -76,6 +76,15 @@ def wants_oracle(kind: str, truth: list[str], verdict: dict[str, Any]) -> str | 
     return others[0] if hits and others else None
 
 
+def named_outside(kind: str, verdict: dict[str, Any]) -> list[str]:
+    """The library names an outside mechanism was given (an ``explained`` verdict on an ``outside`` case),
+    to score the mechanism's own signal against: whether the runs held the evidence that the name is not the
+    mechanism, for a candidate of the mechanism's form (empty otherwise)."""
+    if kind != "outside" or verdict.get("status") != "explained":
+        return []
+    return list(verdict.get("effects") or [])
+
+
 def oracle_separation(fit: Path, check: Path, signals: list[np.ndarray], rival: str) -> float:
     """Paired z of the true signal's held-out gain over ``rival``'s: the noise-free difference the
     mechanism makes (``signals``: identification run, then check run) as one more candidate of one
