@@ -10,6 +10,15 @@ import os
 for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_name, "1")
 
+import signal  # noqa: E402
+
+# Ctrl-C as at an operator's terminal: a shell without job control starts a background command (`pytest &`,
+# `nohup pytest &` from a script) with SIGINT ignored, Python then never raises KeyboardInterrupt, and the
+# rig processes the tests start inherit the disposition -- the interrupt tests would measure the launcher,
+# not the program. A handler (not SIG_IGN) here is reset to the default in every process exec'd from here.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
 import hashlib  # noqa: E402
 from pathlib import Path  # noqa: E402
 
