@@ -260,17 +260,20 @@ def judge(case: dict[str, Any], fit: Path, check: Path) -> dict[str, Any]:
     honest = False
     rival = wants_oracle(case["kind"], case["effects"], row["verdict"])
     if rival is not None:
-        with np.load(fit.parent / "signals.npz") as z:
-            signals = [z[k] for k in sorted(z.files, key=lambda k: int(k.split("_")[1]))]
-        row["oracle_z"] = oz = oracle_separation(fit, check, signals, rival)
+        row["oracle_z"] = oz = oracle_separation(fit, check, _true_signals(fit), rival)
         honest = oz < ORACLE_Z
     named = named_outside(case["kind"], row["verdict"])
     if named:  # did the runs hold the evidence against the name? (the true signal, scored against each name)
-        with np.load(fit.parent / "signals.npz") as z:
-            signals = [z[k] for k in sorted(z.files, key=lambda k: int(k.split("_")[1]))]
+        signals = _true_signals(fit)
         row["oracle_z_named"] = {n: oracle_separation(fit, check, signals, n) for n in named}
     row["outcome"] = classify(case["kind"], case["effects"], row["verdict"], honest)
     return row
+
+
+def _true_signals(fit: Path) -> list[np.ndarray]:
+    """The noise-free difference the case's mechanisms make, one array a run (``signals.npz`` beside ``fit``)."""
+    with np.load(fit.parent / "signals.npz") as z:
+        return [z[k] for k in sorted(z.files, key=lambda k: int(k.split("_")[1]))]
 
 
 def _rejudge(directory: str) -> dict[str, Any]:
