@@ -337,9 +337,9 @@ class Evidence:
             # it: the share is then taken of what the refinement leaves (SECOND_SHARE already asks half of it)
             material = names[best] in self.refinements or gain2 / excess >= SECOND_MIN
             # a small second must be spread over the check run (Z_SPREAD); beside a refinement as above
-            spread_z = self.second_spread_z(best, j)
-            spread = (names[best] in self.refinements or gain2 / excess >= 1.0 - MOST or spread_z is None
-                      or spread_z >= Z_SPREAD)
+            small = names[best] not in self.refinements and gain2 / excess < 1.0 - MOST
+            spread_z = self.second_spread_z(best, j) if small else None
+            spread = spread_z is None or spread_z >= Z_SPREAD
             if alone and takes >= SECOND_SHARE and material and spread and (joint_share >= MOST or not needed):
                 steps = ({"effect": names[best], "shrink": float(shrink[best]), "share_closed": share,
                           "z": float(z[best])},
