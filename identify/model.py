@@ -117,14 +117,16 @@ class PreisachModel:
         the same numbers, the replays batched (:func:`identify.forward.predict_many`)."""
         return forward.predict_many(self, inputs)
 
-    def predict_run(self, run: Any) -> np.ndarray:
+    def predict_run(self, run: Any, memo: Any = None) -> np.ndarray:
         """The reading (um) at every point of ``run`` (an :class:`identify.runs.Run`), ``(n,)``, with
-        the model's effects, from negative saturation.
+        the model's effects, from negative saturation.  ``memo``: an
+        :class:`identify.effects.compose.FixedPointMemo` for many runs that share their beginning (the
+        same numbers).
 
         Raises :class:`identify.effects.EffectNotApplicable` when the run
         lacks what an effect needs (time stamps for ``creep``, ...).
         """
-        return predict_run(self, run)
+        return predict_run(self, run, memo=memo)
 
     def without_effects(self) -> "PreisachModel":
         """This model's equation (22) part."""

@@ -90,9 +90,10 @@ def test_the_design_keeps_the_limits_and_reports_its_own_separation():
     assert np.array_equal(same.v_V, plan.v_V) and np.array_equal(same.dwell_s, plan.dwell_s)
 
 
-def _reference_separation(rivals, base, run, sigma):
+def _reference_separation(rivals, base, run, sigma, memo=None):
     """The separation as first written: each pair re-builds both rivals' re-fit columns (a drift's nuisance
-    once per pair it is in), each drift secant its own replay."""
+    once per pair it is in), each drift secant its own replay, and every prediction from the start (the
+    design's ``memo`` is not used)."""
     from itertools import combinations
 
     from identify.diagnosis.discriminate import _nested, _refit_columns, _unexplained

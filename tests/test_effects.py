@@ -129,6 +129,38 @@ def test_each_effect_recovers_its_own_parameters_exactly_from_noise_free_data(na
 
 
 @pytest.mark.parametrize("drive", ["voltage", "power"])
+def test_a_memo_resumes_the_fixed_point_where_runs_part_with_the_same_numbers(drive):
+    # a discriminating design predicts one plan with each candidate segment appended: the memo solves only
+    # from where a run parts from the one solved before, and every number is a solve from the start's
+    from identify.effects.compose import FixedPointMemo
+
+    k = 0.05 if drive == "voltage" else 0.2
+    model = replace(TRUE, effects=(EFFECTS["interaction"]({"k": k, "drive": drive}),))
+    other = replace(model, density=model.density[::-1].copy())  # another model: never served this one's runs
+    memo = FixedPointMemo()
+    prefix = 300
+    runs = [run_of(np.zeros(V.size))]
+    for seed in (2, 3):  # the same beginning, other segments after it
+        w, d, _ = _design(V.size - prefix, seed)
+        v = np.concatenate([V[:prefix], w])
+        dw = np.concatenate([DWELL[:prefix], d])
+        runs.append(run_of(np.zeros(v.size), v, dw, np.cumsum(dw)))
+    runs.append(run_of(np.zeros(120), V[:120], DWELL[:120], T[:120]))  # a run that is a beginning of the first
+    runs.append(run_of(np.zeros(V.size), V[::-1].copy(), DWELL, T))  # one that parts at once
+    for run in runs:
+        for m in (model, other):
+            np.testing.assert_array_equal(predict_run(m, run, memo=memo), predict_run(m, run))
+    # and the design's memo is what it says: resumed beginnings (the second run parts from the first at 300)
+    a = np.arange(5.0)
+    memo2 = FixedPointMemo()
+    memo2.keep(model, a, a, k, drive, a, [(None, 0.0, 0.0)] * 6)
+    assert memo2.start(model, np.r_[a[:3], 9.0], np.r_[a[:3], 9.0], k, drive)[0] == 3
+    assert memo2.start(model, a[:2], a[:2], k, drive)[0] == 2
+    assert memo2.start(other, a, a, k, drive) is None
+    assert memo2.start(model, a, a, 2 * k, drive) is None
+
+
+@pytest.mark.parametrize("drive", ["voltage", "power"])
 def test_the_mean_field_fixed_point_is_exact_and_continuous_by_hand(drive):
     k = 0.05 if drive == "voltage" else 0.2  # V/um, V^2/um: about the same shift
     model = replace(TRUE, effects=(EFFECTS["interaction"]({"k": k, "drive": drive}),))

@@ -46,6 +46,7 @@ from typing import Callable
 import numpy as np
 
 from ..effects import Context, Effect, EffectNotApplicable
+from ..effects.compose import FixedPointMemo
 from ..errors import IdentifyError
 from ..model import PreisachModel
 from ..runs import Run
@@ -140,13 +141,15 @@ def _nested(big: Rival, small: Rival) -> bool:
     return not small.models[0].effects and bool(big.models[0].effects)
 
 
-def separation(rivals: list[Rival], base: PreisachModel, run: Run, sigma: float) -> tuple[float, dict[str, float]]:
-    """The plan's separation (noise levels, the smallest over pairs and parameter sets) and each pair's."""
+def separation(rivals: list[Rival], base: PreisachModel, run: Run, sigma: float,
+               memo: FixedPointMemo | None = None) -> tuple[float, dict[str, float]]:
+    """The plan's separation (noise levels, the smallest over pairs and parameter sets) and each pair's.
+    ``memo``: kept between calls on runs that share their beginning (:func:`design`'s), the same numbers."""
     if sigma <= 0:
         raise IdentifyError("the noise level must be positive to design a discriminating run")
     f0 = base.predict(run.inputs)
     try:
-        preds = [[m.predict_run(run) for m in r.models] for r in rivals]
+        preds = [[m.predict_run(run, memo=memo) for m in r.models] for r in rivals]
     except EffectNotApplicable:  # a plan too short for an effect to act (one point: no time)
         return 0.0, {f"{a.name}|{b.name}": 0.0 for a, b in combinations(rivals, 2)}
     nuisances: dict[int, np.ndarray] = {}
@@ -214,6 +217,7 @@ def design(rivals: list[Rival], base: PreisachModel, v_min: float, v_max: float,
     dwell: list[float] = []
     score, pairs = 0.0, {}
     budget_t = np.inf if rig_time_s is None else float(rig_time_s)
+    memo = FixedPointMemo()  # every option below begins with the plan so far
     while len(v) < points:
         x0 = v[-1] if v else lo
         options = _segments(x0, v, lo, hi)
@@ -224,7 +228,7 @@ def design(rivals: list[Rival], base: PreisachModel, v_min: float, v_max: float,
             if len(v) + len(sv) > points or sum(dwell) + sum(sd) > budget_t:
                 continue
             run = probe(np.array(v + sv), np.array(dwell + sd), readings, initial_V=lo)
-            s, p = separation(rivals, base, run, sigma)
+            s, p = separation(rivals, base, run, sigma, memo)
             share = len(sv) / points + (sum(sd) / budget_t if np.isfinite(budget_t) else 0.0)
             value = (s * s - score * score) / share
             if best is None or value > best[0]:

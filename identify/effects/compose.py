@@ -30,6 +30,7 @@ constant.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 from typing import Iterable
@@ -104,9 +105,10 @@ def sensed(effects: Iterable[Effect], u: np.ndarray) -> np.ndarray:
 
 
 def deflection(model: HostModel, run: Run, effects: Iterable[Effect] | None = None,
-               feedback: np.ndarray | None = None) -> np.ndarray:
+               feedback: np.ndarray | None = None, memo: "FixedPointMemo | None" = None) -> np.ndarray:
     """The output before the sensor stage (um), ``(n,)``.  ``feedback``: the output the hysterons feel
-    (with ``interaction``); None solves the fixed point (prediction)."""
+    (with ``interaction``); None solves the fixed point (prediction), resumed from ``memo`` where the run
+    begins as one solved before."""
     effects = list(model.effects if effects is None else effects)
     static = output_contributions(effects, run, which="static")
     inter = next((e for e in effects if e.loop() is not None), None)
@@ -119,16 +121,18 @@ def deflection(model: HostModel, run: Run, effects: Iterable[Effect] | None = No
         a, thermal = hysteron_inputs(others, run, None, model)
         # x = a + k (b + P(x)): b the rest of the output, or the phase part's reference taken off P
         b = model.mu0 + model.c_d * thermal + static if loop.source == "output" else np.full(run.n, -loop.reference_um)
-        u = _fixed_point(model, a, b, loop.k, loop.drive) + (model.mu0 + model.c_d * thermal + loop.reference_um
+        u = _fixed_point(model, a, b, loop.k, loop.drive, memo) + (model.mu0 + model.c_d * thermal + loop.reference_um
                                                              if loop.source == "phase" else -static)
     phase = u - model.mu0 - model.c_d * thermal
     return u + static + output_contributions(effects, run, u, which="driven", phase=phase,
                                              start=start_of(model, run.initial_V))
 
 
-def predict_run(model: HostModel, run: Run, effects: Iterable[Effect] | None = None) -> np.ndarray:
+def predict_run(model: HostModel, run: Run, effects: Iterable[Effect] | None = None,
+                memo: "FixedPointMemo | None" = None) -> np.ndarray:
     """The model's reading (um) at every point of ``run``, ``(n,)``, from negative saturation, with
-    ``effects`` (default: the model's own; none: equation (22) alone).
+    ``effects`` (default: the model's own; none: equation (22) alone).  ``memo``: see
+    :class:`FixedPointMemo` (the same numbers, faster on runs that share a beginning).
 
     Raises :class:`EffectNotApplicable` when the run lacks what an effect needs.
     """
@@ -136,7 +140,7 @@ def predict_run(model: HostModel, run: Run, effects: Iterable[Effect] | None = N
     if not effects:  # equation (22) alone: the memory curve of the heater voltage
         return model.without_effects().predict(run.inputs)
     check_applicable(effects, run)
-    return sensed(effects, deflection(model, run, effects))
+    return sensed(effects, deflection(model, run, effects, memo=memo))
 
 
 def contributions(model: HostModel, run: Run) -> dict[str, np.ndarray]:
@@ -161,19 +165,73 @@ class _Hysterons:
     c_d: float = 0.0
 
 
-def _fixed_point(model: HostModel, a: np.ndarray, b: np.ndarray, k: float, drive: str = "voltage") -> np.ndarray:
+class FixedPointMemo:
+    """The mean-field fixed point of the last run solved for each model, with the memory after every
+    point, so that a run beginning as that one did is solved only from where the two part.
+
+    A discriminating design (:mod:`identify.diagnosis.discriminate`) predicts the same plan with each
+    candidate segment appended in turn: without it, each prediction steps the whole plan again, point by
+    point.  Exact: a beginning is reused only where the hysterons' drive (``a``, ``b`` below) is bit for
+    bit the same, for the same model object and loop; the numbers are those of a solve from the start.
+    One memo serves one design (it holds its models); it is not shared between threads.
+    """
+
+    def __init__(self) -> None:
+        self._solved: dict[tuple[int, float, str], tuple[HostModel, np.ndarray, np.ndarray, np.ndarray, list]] = {}
+
+    def start(self, model: HostModel, a: np.ndarray, b: np.ndarray, k: float, drive: str):
+        """For the longest beginning of ``(a, b)`` solved before, its length ``n``, ``u[:n]`` and the kept
+        ``(state, x, p)`` after each of its points (``n + 1`` of them, the last one's state to be copied
+        before it is stepped); None when nothing was solved for this model and loop."""
+        kept = self._solved.get((id(model), float(k), drive))
+        if kept is None or kept[0] is not model:
+            return None
+        _, ka, kb, ku, states = kept
+        m = min(a.size, ka.size)
+        differ = (ka[:m] != a[:m]) | (kb[:m] != b[:m])
+        n = int(np.argmax(differ)) if differ.any() else m
+        return n, ku[:n], states[:n + 1]
+
+    def keep(self, model: HostModel, a: np.ndarray, b: np.ndarray, k: float, drive: str, u: np.ndarray,
+             states: list) -> None:
+        """Keep the run just solved: ``states[n]`` the memory, root and Preisach part after ``n`` points."""
+        self._solved[(id(model), float(k), drive)] = (model, a.copy(), b.copy(), u.copy(), states)
+
+
+def _copied(state: HysteresisState) -> HysteresisState:
+    """An independent copy of ``state`` (its memory curve copied; the Everett table is shared, read only)."""
+    out = copy.copy(state)
+    out.curve = state.curve.copy()
+    return out
+
+
+def _fixed_point(model: HostModel, a: np.ndarray, b: np.ndarray, k: float, drive: str = "voltage",
+                 memo: FixedPointMemo | None = None) -> np.ndarray:
     """``u = b + P(x)`` with ``x = a + k u`` (``x^2 = a^2 + k u`` for ``drive="power"``) at every point,
-    the memory stepped point by point."""
-    state = HysteresisState(_Hysterons(model.grid, model.density))
+    the memory stepped point by point (from where ``memo`` has solved the same beginning before)."""
     grid = model.grid
     walls = grid.walls
-    x = grid.v_min  # negative saturation: the input at or below the lowest wall
-    p_here = state.output
     u = np.empty(a.size)
-    for n in range(a.size):
+    resumed = memo.start(model, a, b, k, drive) if memo is not None else None
+    if resumed is None:
+        state = HysteresisState(_Hysterons(model.grid, model.density))
+        x = grid.v_min  # negative saturation: the input at or below the lowest wall
+        p_here = state.output
+        first = 0
+        states = [(_copied(state), x, p_here)] if memo is not None else None
+    else:
+        first, u_before, states = resumed
+        u[:first] = u_before
+        kept_state, x, p_here = states[first]
+        state = _copied(kept_state)  # the kept one stays as it was, for the next run
+    for n in range(first, a.size):
         x = _first_root(state, walls, grid.v_min, grid.step, float(a[n]), float(b[n]), k, x, p_here, drive)
         p_here = state.apply(x)
         u[n] = b[n] + p_here
+        if states is not None:
+            states.append((_copied(state), x, p_here))
+    if memo is not None:
+        memo.keep(model, a, b, k, drive, u, states)
     return u
 
 
