@@ -24,7 +24,7 @@ import numpy as np
 
 from . import forward
 from .effects import Effect
-from .effects.compose import predict_run
+from .effects.compose import FixedPointMemo, predict_run
 from .errors import IdentifyError
 from .grid import Grid
 from .memory import InitialState
@@ -117,7 +117,7 @@ class PreisachModel:
         the same numbers, the replays batched (:func:`identify.forward.predict_many`)."""
         return forward.predict_many(self, inputs)
 
-    def predict_run(self, run: Any, memo: Any = None) -> np.ndarray:
+    def predict_run(self, run: Any, memo: FixedPointMemo | None = None) -> np.ndarray:
         """The reading (um) at every point of ``run`` (an :class:`identify.runs.Run`), ``(n,)``, with
         the model's effects, from negative saturation.  ``memo``: an
         :class:`identify.effects.compose.FixedPointMemo` for many runs that share their beginning (the

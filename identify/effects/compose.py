@@ -179,7 +179,8 @@ class FixedPointMemo:
     def __init__(self) -> None:
         self._solved: dict[tuple[int, float, str], tuple[HostModel, np.ndarray, np.ndarray, np.ndarray, list]] = {}
 
-    def start(self, model: HostModel, a: np.ndarray, b: np.ndarray, k: float, drive: str):
+    def start(self, model: HostModel, a: np.ndarray, b: np.ndarray, k: float,
+              drive: str) -> tuple[int, np.ndarray, list] | None:
         """For the longest beginning of ``(a, b)`` solved before, its length ``n``, ``u[:n]`` and the kept
         ``(state, x, p)`` after each of its points (``n + 1`` of them, the last one's state to be copied
         before it is stepped); None when nothing was solved for this model and loop."""
