@@ -121,3 +121,14 @@ def test_the_verdict_names_what_else_a_named_family_reaches():
     assert got["ambient_drift"] == list(EFFECTS["ambient_drift"].look_alikes)
     assert any("heater" in a for a in got["ambient_drift"])  # a heater ageing changes the rise per volt too
     assert look_alikes([]) == {}
+
+
+def test_the_fitted_line_shows_each_runs_drift_and_leaves_sequences_to_the_json():
+    from rig.diagnosis.report import _params_text
+
+    params = {"runs": {"fit": {"rms_um": 0.0046, "range_um": 0.0158, "change_um": 0.00127,
+                               "knots_s": [20.0, 605.3], "coefficients": [-0.004, 0.001]},
+                       "check": {"rms_um": 0.002, "knots_s": [1.0]}},
+              "form": "gain", "empty": {}, "spectrum": {"at_2s": 0.25}}
+    assert _params_text(params) == ("runs {fit {rms_um 0.0046, range_um 0.0158, change_um 0.00127}, "
+                                    "check {rms_um 0.002}}, form gain, spectrum {at_2s 0.25}")

@@ -279,12 +279,16 @@ def drift_text(m: dict[str, Any], unit: str) -> str:
 
 
 def _params_text(params: dict[str, Any], depth: int = 0) -> str:
+    """A candidate's fitted ``params`` in one line: scalars, and dicts of them to two levels (a drift's runs,
+    each with its rms, range and change); sequences (a spline's knots and coefficients) only in the JSON."""
     parts = []
     for k, v in params.items():
         if isinstance(v, dict):
-            if depth >= 1:
-                continue
-            parts.append(f"{k} {{{_params_text(v, depth + 1)}}}")
+            inner = _params_text(v, depth + 1) if depth < 2 else ""
+            if inner:
+                parts.append(f"{k} {{{inner}}}")
+        elif isinstance(v, (list, tuple, np.ndarray)):
+            continue
         elif isinstance(v, float):
             parts.append(f"{k} {v:.3g}")
         else:
