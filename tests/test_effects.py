@@ -258,6 +258,44 @@ def test_a_two_branch_creep_lags_then_relaxes_back_and_is_recovered_exactly():
     np.testing.assert_allclose(fit.model.effects[0].params["weights"], weights, rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.parametrize("sign, split_index", [(-1.0, None), (1.0, 8)])
+def test_a_lag_that_leads_or_overshoots_is_recovered_exactly(sign, split_index):
+    # a lead (a heater whose resistance rises: a step's power arrives first and sags) and a beam that lags on a
+    # fast mode and gives part of the rise back on a slow one (an overshoot): the fractions' signs are a setting
+    from identify.effects.thermal_lag import SPLITS_S, TIME_CONSTANTS_S, signs_of
+
+    split_s = None if split_index is None else TIME_CONSTANTS_S[split_index]
+    assert split_s in SPLITS_S
+    setting = {"sign": sign, "split_s": split_s}
+    signs = signs_of(setting, np.asarray(TIME_CONSTANTS_S))
+    assert signs.tolist() == ([-1.0] * 12 if split_index is None else [1.0] * 8 + [-1.0] * 4)
+    sizes = [0.1 if j == 4 else 0.08 if j == 9 else 0.0 for j in range(len(TIME_CONSTANTS_S))]
+    fractions = (signs * sizes).tolist()
+    truth = EFFECTS["thermal_lag"]({"drive": "power", "time_constants_s": list(TIME_CONSTANTS_S),
+                                    "fractions": fractions, **setting})
+    y = predict_run(replace(TRUE, effects=(truth,)), run_of(np.zeros(V.size)))
+    fit = fit_with_effects(GRID, [run_of(y)], "ls", [make_effect("thermal_lag")])
+    assert fit.settings["thermal_lag"]["drive"] == "power"
+    assert fit.settings["thermal_lag"]["sign"] == sign
+    assert fit.settings["thermal_lag"].get("split_s") == split_s
+    assert fit.rmse <= 1e-9 * float(np.ptp(y))
+    np.testing.assert_allclose(fit.model.effects[0].params["fractions"], fractions, rtol=1e-6, atol=1e-9)
+    # the signs travel with the model: a stored model predicts the same run
+    back = model_from_dict(json.loads(json.dumps(model_to_dict(fit.model))))
+    assert back.effects[0].params["sign"] == sign and back.effects[0].params["split_s"] == split_s
+    np.testing.assert_allclose(predict_run(back, run_of(y)), predict_run(fit.model, run_of(y)), rtol=0, atol=1e-12)
+
+
+def test_a_lag_written_by_hand_takes_the_signs_of_its_fractions():
+    lead = EFFECTS["thermal_lag"]({"time_constant_s": 30.0, "fraction": -0.05})
+    assert lead.params["sign"] == -1.0 and lead.params["split_s"] is None
+    assert EFFECTS["thermal_lag"]({"time_constant_s": 30.0, "fraction": 0.05}).params["sign"] == 1.0
+    with pytest.raises(IdentifyError, match="sign must be 1 or -1"):
+        EFFECTS["thermal_lag"]({"time_constants_s": [30.0], "fractions": [0.1], "sign": 0.5})
+    with pytest.raises(IdentifyError, match="split_s"):
+        EFFECTS["thermal_lag"]({"time_constants_s": [30.0], "fractions": [0.1], "split_s": -3})
+
+
 def test_an_excursion_creep_turns_with_the_output_that_drives_it_by_hand():
     from identify.effects.creep import excursion_steps
 

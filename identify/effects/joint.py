@@ -513,7 +513,8 @@ def _between(a: Effect, b: Effect, t: float) -> Effect:
 
 
 #: Parameters that are not coefficients (scales, knots, settings): never interpolated by a half step.
-FIXED_KEYS = ("time_constant_s", "time_constants_s", "knots_z", "centre_um", "half_range_um", "knots_s", "knots")
+FIXED_KEYS = ("time_constant_s", "time_constants_s", "knots_z", "centre_um", "half_range_um", "knots_s", "knots",
+              "sign", "split_s")
 
 
 def fit_with_effects(

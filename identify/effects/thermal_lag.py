@@ -6,8 +6,13 @@ low order: a sum of first-order modes, mode ``j`` holding a fraction
 each point's recorded dwell from where the previous point left it.  The
 modes are a spectrum on :data:`TIME_CONSTANTS_S` (0.5 s to 30 min,
 log-spaced: heat spreads into the chip, the package and the holder over
-minutes to tens of minutes) with ``f_j >= 0``, so one, two or three modes -- or a
-continuum -- are all members.  What drives them is a setting: the heater's
+minutes to tens of minutes), so one, two or three modes -- or a continuum --
+are all members.  Each mode's sign is set (settings ``sign`` and ``split_s``,
+:data:`SIGNS`, :data:`SPLITS_S`): ``f_j >= 0`` is a beam short of its
+set-point (a lag), ``f_j <= 0`` one beyond it (a lead: a heater whose
+resistance rises with its temperature draws its power first and then less),
+and a spectrum of one sign on its fast modes and the other on its slow ones
+a step response that overshoots and comes back.  What drives them is a setting: the heater's
 Joule **power** (the temperature rise is ``~ v^2``: heating and cooling
 then lag differently) or the **voltage**::
 
@@ -18,9 +23,10 @@ then lag differently) or the **voltage**::
 thermal term follows it too (the expansion follows the beam's
 temperature).  An unknown dwell counts as fully settled.  Parameters:
 ``drive`` (``both``: the spectrum twice, once driven by each),
-``time_constants_s``, ``fractions`` (in [0, 1], fitted by
-projected Gauss--Newton steps on their secants: non-negative least squares
-of the linearised problem).
+``time_constants_s``, ``fractions`` (in [-1, 1], each of its mode's sign,
+fitted by projected Gauss--Newton steps on their secants: non-negative least
+squares of the linearised problem in the signed columns), ``sign`` (+1 or -1)
+and ``split_s`` (s, or None).
 
 Option ``dominant`` (``--with thermal_lag:dominant``): the whole rise is
 slow -- dwells as short as the time constant or shorter, as a plan within a
@@ -57,6 +63,15 @@ from .base import INPUT, Columns, Context, Effect, finite_array, needs_dwell, ne
 TIME_CONSTANTS_S = tuple(float(x) for x in np.geomspace(0.5, 1800.0, 12))
 #: What drives the modes (a setting): power, voltage, or both (a spectrum of each: a mixed drive).
 DRIVES = ("power", "voltage", "both")
+#: The modes' signs (a setting ``sign``, as creep's): ``+1`` the beam lags its set-point, ``-1`` it leads
+#: (a step overshoots and relaxes back: a heater whose resistance rises with its temperature draws less
+#: power as it warms, so a set-point's power arrives first and sags).
+SIGNS = (1.0, -1.0)
+#: Where the spectrum changes sign (a setting ``split_s``): its first slow time constant (s), or None for one
+#: sign throughout.  ``sign`` on the faster modes and ``-sign`` on this one and the slower: a beam that lags
+#: and then overshoots (a fast path that carries the rise, a slow one that gives part of it back), or the
+#: reverse.  The 6th and the 9th of :data:`TIME_CONSTANTS_S` (20.7 s and 193 s).
+SPLITS_S = (None, TIME_CONSTANTS_S[5], TIME_CONSTANTS_S[8])
 #: Largest plausible lagging fraction of a mode (a whole rise arriving late).
 MAX_FRACTION = 1.0
 #: Step of the secant in a fraction: the columns are the derivative at the current fractions, not a secant
@@ -127,6 +142,15 @@ def lagged(run: Run, tau: float | np.ndarray, fraction: float | np.ndarray, v: n
     return out
 
 
+def signs_of(setting: dict[str, Any], taus: np.ndarray) -> np.ndarray:
+    """``(modes,)``: the sign of each mode of time constants ``taus`` (s) in a setting or fitted params:
+    ``sign`` (default +1), flipped for the modes at ``split_s`` and slower."""
+    signs = np.full(np.size(taus), float(setting.get("sign", 1.0)))
+    if setting.get("split_s") is not None:
+        signs[np.asarray(taus) >= float(setting["split_s"]) * (1.0 - 1e-9)] *= -1.0
+    return signs
+
+
 def mode_drives(drive: str, n: int) -> list[str]:
     """What drives each of ``n`` modes: all ``drive``, or for ``both`` the first half power, the rest voltage."""
     if drive == "both":
@@ -186,7 +210,13 @@ class ThermalLag(Effect):
         if taus.size == 0 or taus.size != fractions.size or np.any(taus <= 0) or drive not in DRIVES:
             raise IdentifyError(f"effect {self.name!r}: time_constants_s (> 0) and fractions must match, drive one of "
                                 f"{', '.join(DRIVES)}")
-        return {"drive": drive, "time_constants_s": taus.tolist(), "fractions": fractions.tolist()}
+        sign, split = params.get("sign"), params.get("split_s")
+        if sign is None:  # written without: the signs the fractions have (a lead if none is positive)
+            sign = -1.0 if np.any(fractions < 0) and not np.any(fractions > 0) else 1.0
+        if float(sign) not in SIGNS or (split is not None and not (math.isfinite(float(split)) and float(split) > 0)):
+            raise IdentifyError(f"effect {self.name!r}: sign must be 1 or -1 and split_s a time constant (s) > 0")
+        return {"drive": drive, "time_constants_s": taus.tolist(), "fractions": fractions.tolist(),
+                "sign": float(sign), "split_s": None if split is None else float(split)}
 
     def identifiable(self, runs: tuple[Run, ...], grid: Grid) -> str | None:
         why = self.applicable(runs)
@@ -205,11 +235,13 @@ class ThermalLag(Effect):
         return None
 
     def settings_grid(self) -> list[dict[str, float]]:
-        return [{"drive": d} for d in DRIVES]
+        return [{"drive": d, "sign": s, **({} if k is None else {"split_s": k})}
+                for d in DRIVES for s in SIGNS for k in SPLITS_S]
 
     def fit_settings_grid(self) -> list[dict[str, float]]:
-        if self.fitted:  # a start found by the scan (``dominant``): its own drive
-            return [{"drive": self.params["drive"]}]
+        if self.fitted:  # a start found by the scan (``dominant``): its own drive and signs
+            p = self.params
+            return [{"drive": p["drive"], "sign": p["sign"], **({} if p["split_s"] is None else {"split_s": p["split_s"]})}]
         return self.settings_grid()
 
     def _state(self, setting: dict[str, float]) -> tuple[str, np.ndarray, np.ndarray]:
@@ -234,6 +266,19 @@ class ThermalLag(Effect):
         """The secant of the output in each mode's fraction (at the current fractions; the memory curve and
         the thermal term both see the lagged input); zero for a mode no run can see (:meth:`_visible`)."""
         drive, taus, f0 = self._state(setting)
+        values = self._unsigned(ctx, drive, taus, f0)
+        labels = tuple(f"{d}_fraction_at_{t:.3g}s" if drive == "both" else f"fraction_at_{t:.3g}s"
+                       for t, d in zip(taus, mode_drives(drive, taus.size)))
+        signs = signs_of(self.params if self.fitted else setting, taus)  # a fitted lag keeps its signs
+        return single_columns(ctx.runs, [v * signs for v in values], labels, (True,) * taus.size)
+
+    def _unsigned(self, ctx: Context, drive: str, taus: np.ndarray, f0: np.ndarray) -> list[np.ndarray]:
+        """Each run's secants ``(n, modes)`` in each mode's fraction at ``f0``; at no lag computed once per
+        context and drive for all the settings of signs (the last context's kept)."""
+        key = (drive, tuple(taus), tuple(f0))
+        memo = getattr(self, "_memo", None)
+        if memo is not None and memo[0] is ctx and memo[1] == key:
+            return memo[2]
         heres = [lagged(run, taus, f0, drive=drive) for run in ctx.runs]
         seen = self._visible(ctx, drive, taus, f0, heres)
         values = []
@@ -246,9 +291,8 @@ class ThermalLag(Effect):
                 moved = lagged(run, taus, f, drive=drive)
                 cols[:, j] = (ctx.response(i, moved, moved) - base) / STEP
             values.append(cols)
-        labels = tuple(f"{d}_fraction_at_{t:.3g}s" if drive == "both" else f"fraction_at_{t:.3g}s"
-                       for t, d in zip(taus, mode_drives(drive, taus.size)))
-        return single_columns(ctx.runs, values, labels, (True,) * taus.size)
+        self._memo = (ctx, key, values)
+        return values
 
     @staticmethod
     def _visible(ctx: Context, drive: str, taus: np.ndarray, f0: np.ndarray, heres: list[np.ndarray]) -> np.ndarray:
@@ -267,12 +311,17 @@ class ThermalLag(Effect):
         return seen
 
     def coefficients(self, ctx: Context) -> np.ndarray:
-        return np.asarray(self.params["fractions"], dtype=float)
+        """The fractions in the columns' signs (each mode's fraction times its sign: >= 0 when fitted)."""
+        p = self.params
+        return np.asarray(p["fractions"], dtype=float) * signs_of(p, np.asarray(p["time_constants_s"]))
 
     def with_fit(self, ctx, setting, coef, cols) -> "ThermalLag":
         drive, taus, _ = self._state(setting)
-        fractions = np.clip(np.asarray(coef, dtype=float), 0.0, MAX_FRACTION)  # none to the whole rise
-        return ThermalLag({"drive": drive, "time_constants_s": taus.tolist(), "fractions": fractions.tolist()})
+        source = self.params if self.fitted else setting  # a fitted lag keeps its signs
+        sizes = np.clip(np.asarray(coef, dtype=float), 0.0, MAX_FRACTION)  # none to the whole rise, each its sign
+        return ThermalLag({"drive": drive, "time_constants_s": taus.tolist(),
+                           "fractions": (signs_of(source, taus) * sizes).tolist(),
+                           "sign": float(source.get("sign", 1.0)), "split_s": source.get("split_s")})
 
     def bounds(self) -> dict[str, float]:
         out = {f"fraction_at_{t:.3g}s": MAX_FRACTION for t in TIME_CONSTANTS_S}
@@ -284,6 +333,7 @@ class ThermalLag(Effect):
         f = np.asarray(p["fractions"])
         taus = np.asarray(p["time_constants_s"])
         total = float(f.sum())
-        return {"drive": p["drive"], "fraction": total,
-                "mean_time_constant_s": float(np.sum(f * taus) / total) if total > 0 else None,
-                "modes": {f"at_{t:.3g}s": float(x) for t, x in zip(taus, f) if x > 0}}
+        size = float(np.abs(f).sum())
+        return {"drive": p["drive"], "sign": p["sign"], "split_s": p["split_s"], "fraction": total,
+                "mean_time_constant_s": float(np.sum(np.abs(f) * taus) / size) if size > 0 else None,
+                "modes": {f"at_{t:.3g}s": float(x) for t, x in zip(taus, f) if x != 0}}
