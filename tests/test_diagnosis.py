@@ -426,3 +426,24 @@ def test_on_the_check_runs_the_hysterons_feel_the_model_not_the_readings():
     assert not np.allclose(ctx.feedback[1][check.rows], check.outputs[check.rows])  # the readings hold the drift
     # the identification run keeps its measured output (the fit's own regressor)
     np.testing.assert_array_equal(ctx.feedback[0][fit.rows], fit.outputs[fit.rows])
+
+
+def test_a_relinearisation_steps_only_in_the_modes_the_fit_used_and_their_neighbours():
+    # a sign-constrained spectrum fitted at modes 2 and 6 of 8: the small steps keep 1-3 and 5-7, not 0 and 4
+    from identify.diagnosis.engine import _in_play
+    from identify.effects.base import Columns
+
+    labels = tuple(f"fraction_at_{j}" for j in range(8))
+    values = (np.ones((5, 8)),)
+    constrained = Columns(values, labels, (True,) * 8, (-1,) * 8)
+    coef = np.array([0.0, 0.0, 0.3, 0.0, 0.0, 0.0, 0.1, 0.0])
+    assert _in_play(coef, constrained, constrained).tolist() == [0, 1, 1, 1, 0, 1, 1, 1]
+    # at the ends: a used first mode keeps its one neighbour, never wraps round to the last
+    ends = np.array([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert _in_play(ends, constrained, constrained).tolist() == [1, 1, 0, 0, 0, 0, 0, 0]
+    # unconstrained columns go either way from the fit: every step kept
+    free = Columns(values, labels, (False,) * 8, (-1,) * 8)
+    assert _in_play(coef, free, free).tolist() == [1] * 8
+    # steps that are not the same terms as the fit's (another effect's columns there): every step kept
+    other = Columns((np.ones((5, 3)),), ("a", "b", "c"), (True,) * 3, (-1,) * 3)
+    assert _in_play(coef, constrained, other).tolist() == [1, 1, 1]
