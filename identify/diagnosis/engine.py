@@ -392,7 +392,9 @@ def _in_play(coef: np.ndarray, cols: Columns, step: Columns) -> np.ndarray:
     if step.k != cols.k or step.labels != cols.labels:
         return keep
     used = np.asarray(coef, dtype=float) != 0.0
-    near = used | np.roll(used, 1) & (np.arange(step.k) > 0) | np.roll(used, -1) & (np.arange(step.k) < step.k - 1)
+    near = used.copy()
+    near[1:] |= used[:-1]
+    near[:-1] |= used[1:]
     constrained = np.asarray(cols.nonneg, dtype=bool)
     keep[constrained & ~near] = 0.0
     return keep
