@@ -1,4 +1,4 @@
-"""The blind benchmark of ``rig diagnose`` on generators written by other authors (``gen_b`` to ``gen_q``).
+"""The blind benchmark of ``rig diagnose`` on generators written by other authors (``gen_b`` to ``gen_s``).
 
 For every case -- one mechanism of a generator, none, or two library
 mechanisms at once -- on a device drawn from the seed (``base.draw_device``):
@@ -59,7 +59,7 @@ from .scoring import (ORACLE_Z, classify, four_columns, named_outside, oracle_se
                       wants_oracle)
 
 #: Generators this harness runs (sub-packages of ``benchmarks.blind``).
-GENERATORS = ("gen_b", "gen_c", "gen_d", "gen_e", "gen_f", "gen_g", "gen_h", "gen_i", "gen_j", "gen_k", "gen_l", "gen_m", "gen_n", "gen_o", "gen_p", "gen_q")
+GENERATORS = ("gen_b", "gen_c", "gen_d", "gen_e", "gen_f", "gen_g", "gen_h", "gen_i", "gen_j", "gen_k", "gen_l", "gen_m", "gen_n", "gen_o", "gen_p", "gen_q", "gen_r", "gen_s")
 #: Seeds of each split; disjoint.  The headline split is never used for tuning.
 SPLITS = {"dev": range(1, 100_001), "headline": range(900_001, 1_000_001)}
 #: Noise of one recorded point (um): as the project's own benchmark (psd noise 2 mV x 5 um/V / sqrt(4)).
