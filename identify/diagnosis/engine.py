@@ -40,6 +40,7 @@ from .binning import Binning, bin_residuals
 from .candidates import Candidate, library
 from .noise import NoiseEstimate, estimate_noise, fit_residual_bound, floor_per_point
 from .resolution import MODES as RESOLUTION_MODES, Resolution
+from .use_clock import CLOCKS as USE_CLOCKS, UseClocked, is_session_drift
 from ..cross_validation import (Blocks, Design, bootstrap_mse, coefficients_without, cross_validate, make_blocks,
                                 onehot, predict_at_chosen)
 from .verdict import Evidence, Verdict
@@ -616,6 +617,21 @@ def _assess(cand: Candidate, grid_settings: list[dict[str, float]], cols_list: l
                      cols_list, best, cv.chosen)
 
 
+def _use_clock_twins(assessed: list[_Assessed], base: BaseFit, ctx: Context, scored: _Scored, reference: _Reference,
+                     floor_rms: float | None, fit_weight: float, unit: str, mapper: Callable | None = None
+                     ) -> dict[str, _Assessed]:
+    """Each session drift assessed, on a clock of use instead of time (:mod:`~identify.diagnosis.use_clock`),
+    at the setting its own cross-validation chose, scored like a candidate: ``{drift: its twin assessed}``
+    (a twin that cannot be assessed is left out).  Run by ``mapper`` like the candidates."""
+    drifts = [a for a in assessed if is_session_drift(a.cand)]
+    if not drifts:
+        return {}
+    job = partial(held_out_candidate, base=base, ctx=ctx, scored=scored, reference=reference, floor_rms=floor_rms,
+                  fit_weight=fit_weight, unit=unit)
+    outcomes = list((mapper or map)(job, [UseClocked(type(a.cand)(), a.setting) for a in drifts]))
+    return {a.cand.name: o for a, o in zip(drifts, outcomes) if isinstance(o, _Assessed)}
+
+
 def _second_effect(assessed: list[_Assessed], base: BaseFit, ctx: Context, scored: _Scored,
                    reference: _Reference, fit_weight: float) -> tuple[str | None, np.ndarray | None]:
     """A second effect: every other candidate that improves the held-out error on its own (a second must
@@ -674,11 +690,12 @@ def _bootstrap(assessed: list[_Assessed], reference: _Reference, blocks: Blocks,
 
 
 def _evidence(assessed: list[_Assessed], reference: _Reference, floor: _Floor, boot: np.ndarray,
-              where: list[Binning], pair_with: str | None, pairs_after: np.ndarray | None, blocks: Blocks
-              ) -> Evidence:
+              where: list[Binning], pair_with: str | None, pairs_after: np.ndarray | None, blocks: Blocks,
+              twins: dict[str, _Assessed] | None = None) -> Evidence:
     """The held-out scores the verdict decides on: reference and candidates' residuals ``(m,)`` and
-    ``(c, m)`` (um), the floor, the bootstrap, whether any bin of ``where`` stands out, the pairs, and the
-    held-out block of every point."""
+    ``(c, m)`` (um), the floor, the bootstrap, whether any bin of ``where`` stands out, the pairs, the
+    held-out block of every point, and the session drifts' twins on a clock of use."""
+    twins = twins or {}
     return Evidence(
         names=tuple(a.cand.name for a in assessed),
         reference=reference.residual,
@@ -694,6 +711,9 @@ def _evidence(assessed: list[_Assessed], reference: _Reference, floor: _Floor, b
         floor_kind=floor.kind,
         floor_estimate=floor.estimate,
         blocks=blocks.index,
+        twins=tuple(twins),
+        twin_clocks=tuple(USE_CLOCKS[int(t.setting["clock"])] for t in twins.values()),
+        twins_after=np.array([t.after for t in twins.values()]).reshape(len(twins), reference.residual.size),
     )
 
 
@@ -810,11 +830,12 @@ def _diagnose(fit_runs: list[Run] | tuple[Run, ...], check_runs: list[Run] | tup
     # which: the candidates on held-out blocks, alone and a second beside the best; where: the residual binned
     assessed, not_assessed = _held_out_candidates(cands, base, ctx, scored, reference, floor.rms_um, fit_weight,
                                                   output_unit, mapper)
+    twins = _use_clock_twins(assessed, base, ctx, scored, reference, floor.rms_um, fit_weight, output_unit, mapper)
     pair_with, pairs_after = _second_effect(assessed, base, ctx, scored, reference, fit_weight)
     boot = _bootstrap(assessed, reference, scored.blocks, settings)
     where = bin_residuals(scored.features, -reference.residual, floor.per_point if floor.kind == "measured" else None,
                           unit_names)
-    evidence = _evidence(assessed, reference, floor, boot, where, pair_with, pairs_after, scored.blocks)
+    evidence = _evidence(assessed, reference, floor, boot, where, pair_with, pairs_after, scored.blocks, twins)
     verdict = with_unassessed(evidence.decide(), not_assessed)
     scores = _candidate_scores(assessed, evidence, boot)
 

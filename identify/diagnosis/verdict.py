@@ -52,7 +52,10 @@ Then, in order:
   still listed as the best partial contender);
 * the best is not separated from every other candidate -> ``ambiguous``,
   naming the contenders (the best and those it is not separated from);
-* otherwise ``explained``: the effect is named.
+* otherwise ``explained``: the effect is named -- unless it is a session
+  drift whose twin on the clock of use (:mod:`~identify.diagnosis.use_clock`)
+  improves the held-out error clearly more (:data:`Z_USE`): then
+  ``unexplained``, the change following the film's use.
 
 **A verdict never claims more than its evidence.**  ``no_gap`` says the
 held-out error is the noise, so it needs the noise *measured*: repeated
@@ -95,6 +98,13 @@ SECOND_MIN = 0.05
 #: ``z`` of the second step (against the floor) cannot tell a second mechanism from a flexible candidate
 #: absorbing that mismatch where it is largest; see :meth:`Evidence.second_spread_z`.
 Z_SPREAD = 2.0
+
+#: A named session drift whose twin on a clock of use (:mod:`~identify.diagnosis.use_clock`) improves the held-out
+#: error this many standard errors more than the drift does is not named: the change follows the film's use, not the
+#: clock, and no library effect describes it.  The standard error is a delete-one-block jackknife's, as for a small
+#: second name (:data:`Z_SPREAD`, the same value); chosen on the kept cases of seen generators, where the noise's
+#: standard error (tens either way for right and wrong names alike) and 1.5 were tried (see docs/explanation/diagnosis.md).
+Z_USE = 2.0
 
 #: At most this many rivals are named by an ``ambiguous`` verdict (best first).
 MAX_RIVALS = 3
@@ -162,6 +172,11 @@ class Evidence:
     #: The held-out block of every scored point ``(m,)`` (ints; blocks of one run are contiguous in time);
     #: None: unknown (a small second name is then not checked for spread).
     blocks: np.ndarray | None = None
+    #: Session drifts assessed beside a twin on a clock of use (:mod:`~identify.diagnosis.use_clock`), the
+    #: clock each twin chose, and the held-out residuals the twins leave ``(t, m)`` (um).
+    twins: tuple[str, ...] = ()
+    twin_clocks: tuple[str, ...] = ()
+    twins_after: np.ndarray | None = None
 
     @property
     def m(self) -> int:
@@ -261,16 +276,7 @@ class Evidence:
         ``mean(a_first^2 - a_pair^2)`` (None without blocks or pairs, or with fewer than three blocks)."""
         if self.blocks is None or self.pairs_after is None:
             return None
-        d = self.after[first] ** 2 - self.pairs_after[j] ** 2
-        ids, block = np.unique(np.asarray(self.blocks), return_inverse=True)
-        if ids.size < 3:
-            return None
-        sums = np.bincount(block, weights=d, minlength=ids.size)
-        sizes = np.bincount(block, minlength=ids.size).astype(float)
-        without = (d.sum() - sums) / np.maximum(d.size - sizes, 1.0)
-        k = ids.size
-        se = float(np.sqrt((k - 1) / k * np.sum((without - without.mean()) ** 2)))
-        return _ratio(float(d.mean()), se)
+        return _jackknife_z(self.after[first] ** 2 - self.pairs_after[j] ** 2, self.blocks)
 
     @property
     def measured_floor(self) -> bool:
@@ -298,8 +304,39 @@ class Evidence:
                        f"points) and {what}: repeat some set-points (rig acquire --sequence check repeats "
                        f"15 % of its points) or the whole check run to measure it")
 
+    def use_z(self, drift: str) -> float | None:
+        """How many standard errors more the twin of ``drift`` on a clock of use improves the held-out error
+        than ``drift`` does: the paired difference of their squared held-out residuals over its
+        delete-one-block jackknife error (as :meth:`second_spread_z`: both are flexible, and where they
+        differ is mostly their form mismatch, systematic from block to block, which the noise alone
+        would call significant at tens of standard errors either way); None without a twin, the drift
+        or blocks."""
+        if drift not in self.twins or drift not in self.names or self.twins_after is None or self.blocks is None:
+            return None
+        i, t = self.names.index(drift), self.twins.index(drift)
+        return _jackknife_z(self.after[i] ** 2 - self.twins_after[t] ** 2, self.blocks)
+
     def decide(self, exclude: tuple[str, ...] = ()) -> Verdict:
-        """The verdict with the candidates in ``exclude`` left out of the library."""
+        """The verdict with the candidates in ``exclude`` left out of the library: :meth:`_decide`, and an
+        explanation by a session drift whose change follows the film's use instead (:data:`Z_USE`) left
+        unexplained."""
+        verdict = self._decide(exclude)
+        if verdict.status != "explained":
+            return verdict
+        for name in verdict.effects:
+            z = self.use_z(name)
+            if z is not None and z >= Z_USE:
+                clock = self.twin_clocks[self.twins.index(name)]
+                return Verdict(
+                    "unexplained", None, None, (name,),
+                    f"{name} would close {100 * (verdict.share_closed or 0):.0f} % of the excess, but its change "
+                    f"follows the film's switching (the clock of use, {clock}) better than session time "
+                    f"(z = {z:.1f}): a change with use -- training or fatigue of the film -- which no library "
+                    f"effect describes", verdict.share_closed)
+        return verdict
+
+    def _decide(self, exclude: tuple[str, ...] = ()) -> Verdict:
+        """The verdict from the candidates' scores alone (see the module doc)."""
         keep = [i for i, n in enumerate(self.names) if n not in exclude]
         gain, z, shrink = self.gain, self.z(), self.shrink
         names = self.names
@@ -369,6 +406,20 @@ class Evidence:
         return Verdict("explained", names[best], float(shrink[best]), (names[best],),
                        f"{names[best]} improves the held-out error clearly, and clearly more than any other", share,
                        (names[best],), steps)
+
+
+def _jackknife_z(d: np.ndarray, blocks: np.ndarray) -> float | None:
+    """``mean(d)`` over its delete-one-block jackknife standard error, ``d`` ``(m,)`` a paired difference at
+    each scored point and ``blocks`` ``(m,)`` their held-out blocks; None with fewer than three blocks."""
+    ids, block = np.unique(np.asarray(blocks), return_inverse=True)
+    if ids.size < 3:
+        return None
+    sums = np.bincount(block, weights=d, minlength=ids.size)
+    sizes = np.bincount(block, minlength=ids.size).astype(float)
+    without = (d.sum() - sums) / np.maximum(d.size - sizes, 1.0)
+    k = ids.size
+    se = float(np.sqrt((k - 1) / k * np.sum((without - without.mean()) ** 2)))
+    return _ratio(float(d.mean()), se)
 
 
 def _ratio(value: float, se: float) -> float:

@@ -89,6 +89,7 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
             "look_alikes": look_alikes(_named(d)),
         },
         "not_assessed": [{"effect": e, "reason": r} for e, r in d.not_assessed],
+        "use_clock": use_clock(d),
         "warnings": list(warnings) + list(d.warnings),
         "fit": fit,
         "check": check,
@@ -97,6 +98,20 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
         "units": {"input": d.input_unit, "output": d.output_unit},
         "drift_monitor": drift_monitor,
     }
+
+
+def use_clock(d: Diagnosis) -> list[dict[str, Any]]:
+    """Each session drift scored beside its twin on a clock of use (:mod:`identify.diagnosis.use_clock`):
+    ``[{effect, clock, z}]``, ``z`` how many standard errors more the twin improves the held-out error than
+    the drift (positive: the change follows use better than session time; null without a noise floor)."""
+    ev = d.evidence
+    if ev is None:
+        return []
+    out = []
+    for name, clock in zip(ev.twins, ev.twin_clocks):
+        z = ev.use_z(name)
+        out.append({"effect": name, "clock": clock, "z": float(z) if z is not None and np.isfinite(z) else None})
+    return out
 
 
 def look_alikes(names) -> dict[str, list[str]]:
