@@ -84,4 +84,11 @@ def test_an_offset_that_follows_the_films_switching_is_not_called_a_drift_of_the
     assert d.verdict.status == "unexplained" and "cycles" in d.verdict.reason
     assert d.verdict.contenders[0] in ("baseline_drift", "gain_drift", "ambient_drift")
     assert d.evidence.use_z(d.verdict.contenders[0]) >= Z_USE
+    # the JSON's use_clock: every session drift assessed, on the film's switching, with its z
+    from rig.diagnosis.report import use_clock
+
+    listed = {e["effect"]: e for e in use_clock(d)}
+    assert set(listed) == {"baseline_drift", "ambient_drift", "gain_drift"}
+    assert {e["clock"] for e in listed.values()} == {"cycles"}
+    assert listed[d.verdict.contenders[0]]["z"] == pytest.approx(d.evidence.use_z(d.verdict.contenders[0]))
     assert twin_name("baseline_drift") == "baseline_drift@use"

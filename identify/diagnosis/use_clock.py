@@ -107,7 +107,6 @@ class UseClocked(Effect):
         self.drift_setting = dict(setting or {})
         #: The clock by run name, once fitted: ``{run name: (n,) stretched use}``.
         self.clocks: dict[str, np.ndarray] = {}
-        self.clock: str | None = None
 
     def settings_grid(self) -> list[dict[str, Any]]:
         return [{**self.drift_setting, "clock": c} for c in range(len(CLOCKS))]
@@ -130,7 +129,6 @@ class UseClocked(Effect):
         out = UseClocked(type(self.drift)(), self.drift_setting)
         out.drift = self.drift.with_fit(moved, own, coef, cols)
         out.params = {"clock": clock, "drift": out.drift.params}
-        out.clock = clock
         out.clocks = {r.name: r.t_s for r in moved.runs}
         return out
 
@@ -145,4 +143,4 @@ class UseClocked(Effect):
         return self.drift.contribution(self._on_clock(run), *args, **kwargs)
 
     def report(self, runs: tuple[Run, ...] = ()) -> dict[str, Any]:
-        return {"clock": self.clock}
+        return {"clock": (self.params or {}).get("clock")}

@@ -103,7 +103,8 @@ def to_json(d: Diagnosis, fit: list[str], check: list[str], warnings: list[str],
 def use_clock(d: Diagnosis) -> list[dict[str, Any]]:
     """Each session drift scored beside its twin on a clock of use (:mod:`identify.diagnosis.use_clock`):
     ``[{effect, clock, z}]``, ``z`` how many standard errors more the twin improves the held-out error than
-    the drift (positive: the change follows use better than session time; null without a noise floor)."""
+    the drift, judged by a delete-one-block jackknife (positive: the change follows use better than session
+    time; null with fewer than three held-out blocks)."""
     ev = d.evidence
     if ev is None:
         return []
